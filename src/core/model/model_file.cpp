@@ -1,0 +1,300 @@
+#include "core/model/model_file.h"
+
+#include <cmath>
+
+#include "core/model/safetensors.h"
+#include "core/util/error.h"
+
+namespace spikems {
+
+int LayerSpec::output_size(int in) const {
+  if (kind == LayerKind::Conv) return (in + 2 * padding - kernel) / stride + 1;
+  return (in - 1) * stride - 2 * padding + kernel + output_padding;
+}
+
+std::pair<int, int> ModelSpec::output_size(int h, int w) const {
+  for (const auto& l : layers) {
+    h = l.output_size(h);
+    w = l.output_size(w);
+  }
+  return {h, w};
+}
+
+void ModelSpec::validate(const std::string& src) const {
+  if (layers.empty()) fail(src, "", "model has no layers");
+  if (!(time_step_ms > 0) || time_step_ms > 1000) fail(src, "", "time step must be in (0, 1000] ms");
+  if (input_width < 0 || input_height < 0 || input_width > 65535 || input_height > 65535)
+    fail(src, "", "input size out of range");
+  for (size_t k = 0; k < layers.size(); ++k) {
+    const auto& l = layers[k];
+    std::string where = "layer " + std::to_string(k);
+    if (l.in_channels <= 0 || l.out_channels <= 0 || l.in_channels > 4096 || l.out_channels > 4096)
+      fail(src, where, "channel counts out of range");
+    if (k > 0 && l.in_channels != layers[k - 1].out_channels)
+      fail(src, where, "takes " + std::to_string(l.in_channels) + " channels but layer " +
+                           std::to_string(k - 1) + " gives " + std::to_string(layers[k - 1].out_channels));
+    if (l.kernel <= 0 || l.kernel > 15 || l.stride <= 0 || l.stride > 8 || l.padding < 0 ||
+        l.padding >= l.kernel || l.output_padding < 0 || l.output_padding >= l.stride)
+      fail(src, where, "kernel, stride or padding out of range");
+    if (int64_t(l.weight.size()) != l.weight_count())
+      fail(src, where, "weight has " + std::to_string(l.weight.size()) + " values, expected " +
+                           std::to_string(l.weight_count()));
+    const auto& n = l.neuron;
+    if (!(n.theta > 0) || !(n.tau_s > 0) || !(n.tau_r > 0) || !(n.scale_ref >= 0) ||
+        !std::isfinite(n.theta) || !std::isfinite(n.tau_s) || !std::isfinite(n.tau_r))
+      fail(src, where, "neuron parameters must be positive and finite");
+    if (n.discretisation == Discretisation::FIR && (l.srm_kernel.empty() || l.ref_kernel.empty()))
+      fail(src, where, "FIR layer without sampled kernels");
+    if (l.srm_kernel.size() > 100000 || l.ref_kernel.size() > 100000)
+      fail(src, where, "kernel longer than 100000 steps");
+    if (!l.delay.empty() && int(l.delay.size()) != l.out_channels)
+      fail(src, where, "delay must have one value per output channel");
+    for (float v : l.weight)
+      if (!std::isfinite(v)) fail(src, where, "weight contains NaN or infinity");
+  }
+  if (input_width > 0 && input_height > 0) {
+    auto [oh, ow] = output_size(input_height, input_width);
+    if (oh <= 0 || ow <= 0) fail(src, "", "input size is too small for this network");
+  }
+}
+
+std::vector<float> sample_srm_kernel(double tau, double ts) {
+  std::vector<float> k;
+  for (int i = 0;; ++i) {
+    double t = i * ts;
+    double v = (t / tau) * std::exp(1.0 - t / tau);
+    if (std::fabs(v) < 0.01 && t > tau) break;
+    k.push_back(float(v));
+    if (i > 1000000) break;
+  }
+  return k;
+}
+
+std::vector<float> sample_refractory_kernel(const NeuronParams& n, double ts) {
+  std::vector<float> k;
+  double mult = -double(n.scale_ref) * double(n.theta);
+  if (n.refractory == RefractoryShape::SpikeMS) {
+    k.push_back(0.f);
+    for (int j = 0;; ++j) {
+      double v = mult * std::exp(-j * ts / double(n.tau_r));
+      if (!(std::fabs(v) > 0.01)) break;
+      k.push_back(float(v));
+      if (j > 1000000) break;
+    }
+  } else {
+    for (int i = 0;; ++i) {
+      double t = i * ts, tau = n.tau_r;
+      double v = mult * (t / tau) * std::exp(1.0 - t / tau);
+      if (std::fabs(v) < 0.01 && t > tau) break;
+      k.push_back(float(v));
+      if (i > 1000000) break;
+    }
+  }
+  return k;
+}
+
+void fill_fir_kernels(ModelSpec& spec) {
+  for (auto& l : spec.layers) {
+    if (l.neuron.discretisation != Discretisation::FIR) {
+      l.srm_kernel.clear();
+      l.ref_kernel.clear();
+      continue;
+    }
+    l.srm_kernel = sample_srm_kernel(l.neuron.tau_s, spec.time_step_ms);
+    l.ref_kernel = sample_refractory_kernel(l.neuron, spec.time_step_ms);
+  }
+}
+
+ModelSpec spikems_architecture(bool padded, Discretisation d) {
+  struct Row { LayerKind k; int ci, co; float theta, ts, tr, rho; };
+  const Row rows[] = {{LayerKind::Conv, 2, 16, 0.22f, 2, 1, 0.20f},
+                      {LayerKind::Conv, 16, 32, 0.22f, 2, 1, 0.30f},
+                      {LayerKind::Conv, 32, 64, 0.24f, 4, 3, 0.30f},
+                      {LayerKind::ConvTranspose, 64, 32, 0.24f, 4, 3, 0.25f},
+                      {LayerKind::ConvTranspose, 32, 16, 0.22f, 2, 1, 0.25f},
+                      {LayerKind::ConvTranspose, 16, 2, 0.22f, 2, 1, 0.22f}};
+  ModelSpec s;
+  s.name = padded ? "spikems-padded" : "spikems";
+  for (const auto& r : rows) {
+    LayerSpec l;
+    l.kind = r.k;
+    l.in_channels = r.ci;
+    l.out_channels = r.co;
+    l.padding = padded ? 1 : 0;
+    l.output_padding = (padded && r.k == LayerKind::ConvTranspose) ? 1 : 0;
+    l.neuron.theta = r.theta;
+    l.neuron.tau_s = r.ts;
+    l.neuron.tau_r = r.tr;
+    l.neuron.scale_rho = r.rho;
+    l.neuron.discretisation = d;
+    l.weight.assign(size_t(l.weight_count()), 0.f);
+    s.layers.push_back(std::move(l));
+  }
+  fill_fir_kernels(s);
+  return s;
+}
+
+namespace {
+
+const char* kind_name(LayerKind k) { return k == LayerKind::Conv ? "conv" : "conv_transpose"; }
+
+template <typename E>
+E parse_enum(const nlohmann::json& j, const char* key, std::initializer_list<std::pair<const char*, E>> opts,
+             E def, const std::string& src, const std::string& where) {
+  if (!j.contains(key)) return def;
+  std::string v = j[key].get<std::string>();
+  for (auto& [n, e] : opts)
+    if (v == n) return e;
+  fail(src, where, std::string("unknown value '") + v + "' for " + key);
+}
+
+}  // namespace
+
+nlohmann::json spec_to_json(const ModelSpec& s) {
+  nlohmann::json j;
+  j["name"] = s.name;
+  j["time_step_ms"] = s.time_step_ms;
+  j["input_width"] = s.input_width;
+  j["input_height"] = s.input_height;
+  j["training"] = s.training;
+  j["layers"] = nlohmann::json::array();
+  for (const auto& l : s.layers) {
+    const auto& n = l.neuron;
+    j["layers"].push_back(
+        {{"kind", kind_name(l.kind)},
+         {"in_channels", l.in_channels},
+         {"out_channels", l.out_channels},
+         {"kernel", l.kernel},
+         {"stride", l.stride},
+         {"padding", l.padding},
+         {"output_padding", l.output_padding},
+         {"has_delay", !l.delay.empty()},
+         {"neuron",
+          {{"theta", n.theta},
+           {"tau_s", n.tau_s},
+           {"tau_r", n.tau_r},
+           {"scale_ref", n.scale_ref},
+           {"tau_rho", n.tau_rho},
+           {"scale_rho", n.scale_rho},
+           {"refractory", n.refractory == RefractoryShape::SpikeMS ? "spikems" : "slayer"},
+           {"discretisation", n.discretisation == Discretisation::FIR ? "fir" : "iir"},
+           {"surrogate", n.surrogate == SurrogateForm::SpikeMS ? "spikems" : "slayer"}}}});
+  }
+  return j;
+}
+
+ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
+  ModelSpec s;
+  try {
+    s.name = j.value("name", "spikems");
+    s.time_step_ms = j.at("time_step_ms").get<double>();
+    s.input_width = j.value("input_width", 0);
+    s.input_height = j.value("input_height", 0);
+    if (j.contains("training")) s.training = j["training"];
+    for (size_t k = 0; k < j.at("layers").size(); ++k) {
+      const auto& lj = j["layers"][k];
+      std::string where = "layer " + std::to_string(k);
+      LayerSpec l;
+      l.kind = parse_enum<LayerKind>(lj, "kind", {{"conv", LayerKind::Conv}, {"conv_transpose", LayerKind::ConvTranspose}},
+                                     LayerKind::Conv, src, where);
+      l.in_channels = lj.at("in_channels");
+      l.out_channels = lj.at("out_channels");
+      l.kernel = lj.value("kernel", 3);
+      l.stride = lj.value("stride", 2);
+      l.padding = lj.value("padding", 0);
+      l.output_padding = lj.value("output_padding", 0);
+      const auto& nj = lj.at("neuron");
+      auto& n = l.neuron;
+      n.theta = nj.at("theta");
+      n.tau_s = nj.at("tau_s");
+      n.tau_r = nj.at("tau_r");
+      n.scale_ref = nj.value("scale_ref", 2.f);
+      n.tau_rho = nj.value("tau_rho", 0.3f);
+      n.scale_rho = nj.value("scale_rho", 1.f);
+      n.refractory = parse_enum<RefractoryShape>(nj, "refractory", {{"spikems", RefractoryShape::SpikeMS}, {"slayer", RefractoryShape::Slayer}},
+                                                 RefractoryShape::SpikeMS, src, where);
+      n.discretisation = parse_enum<Discretisation>(nj, "discretisation", {{"fir", Discretisation::FIR}, {"iir", Discretisation::IIR}},
+                                                    Discretisation::FIR, src, where);
+      n.surrogate = parse_enum<SurrogateForm>(nj, "surrogate", {{"spikems", SurrogateForm::SpikeMS}, {"slayer", SurrogateForm::Slayer}},
+                                              SurrogateForm::SpikeMS, src, where);
+      s.layers.push_back(std::move(l));
+    }
+  } catch (const nlohmann::json::exception& e) {
+    fail(src, "model spec", std::string("malformed: ") + e.what());
+  }
+  return s;
+}
+
+ModelSpec load_model(const std::string& path) {
+  SafeTensors st = read_safetensors(path);
+  auto fmt = st.metadata.find("format");
+  if (fmt == st.metadata.end() || fmt->second != "spikems-model")
+    fail(path, "", "not a spikems model file (metadata 'format' is not 'spikems-model'); "
+                   "import other weights with `spikems import-slayer`");
+  auto ver = st.metadata.find("version");
+  if (ver == st.metadata.end() || ver->second != std::to_string(kModelFormatVersion))
+    fail(path, "", "model file version " + (ver == st.metadata.end() ? std::string("?") : ver->second) +
+                       " is not supported (this spikems reads version " +
+                       std::to_string(kModelFormatVersion) + ")");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(st.metadata.at("spec"));
+  } catch (const std::exception& e) {
+    fail(path, "metadata 'spec'", std::string("not valid JSON: ") + e.what());
+  }
+  ModelSpec s = spec_from_json(j, path);
+  auto take = [&](const std::string& name, std::vector<int64_t> shape, bool required) {
+    auto it = st.tensors.find(name);
+    if (it == st.tensors.end()) {
+      if (required) fail(path, "", "tensor '" + name + "' is missing");
+      return std::vector<float>{};
+    }
+    if (it->second.dtype != "F32") fail(path, "", "tensor '" + name + "' is not F32");
+    if (!shape.empty() && it->second.shape != shape) {
+      std::string want, got;
+      for (auto d : shape) want += (want.empty() ? "" : "x") + std::to_string(d);
+      for (auto d : it->second.shape) got += (got.empty() ? "" : "x") + std::to_string(d);
+      fail(path, "", "tensor '" + name + "' has shape " + got + ", expected " + want);
+    }
+    return it->second.f32;
+  };
+  for (size_t k = 0; k < s.layers.size(); ++k) {
+    auto& l = s.layers[k];
+    std::string p = "layers." + std::to_string(k) + ".";
+    std::vector<int64_t> wshape =
+        l.kind == LayerKind::Conv
+            ? std::vector<int64_t>{l.out_channels, l.in_channels, l.kernel, l.kernel}
+            : std::vector<int64_t>{l.in_channels, l.out_channels, l.kernel, l.kernel};
+    l.weight = take(p + "weight", wshape, true);
+    bool fir = l.neuron.discretisation == Discretisation::FIR;
+    l.srm_kernel = take(p + "srm_kernel", {}, fir);
+    l.ref_kernel = take(p + "ref_kernel", {}, fir);
+    l.delay = take(p + "delay", {l.out_channels}, false);
+  }
+  s.validate(path);
+  return s;
+}
+
+void save_model(const std::string& path, const ModelSpec& s) {
+  s.validate(path);
+  SafeTensors st;
+  st.metadata["format"] = "spikems-model";
+  st.metadata["version"] = std::to_string(kModelFormatVersion);
+  st.metadata["spec"] = spec_to_json(s).dump();
+  for (size_t k = 0; k < s.layers.size(); ++k) {
+    const auto& l = s.layers[k];
+    std::string p = "layers." + std::to_string(k) + ".";
+    StTensor w;
+    w.shape = l.kind == LayerKind::Conv
+                  ? std::vector<int64_t>{l.out_channels, l.in_channels, l.kernel, l.kernel}
+                  : std::vector<int64_t>{l.in_channels, l.out_channels, l.kernel, l.kernel};
+    w.f32 = l.weight;
+    st.tensors[p + "weight"] = w;
+    if (!l.srm_kernel.empty()) st.tensors[p + "srm_kernel"] = StTensor{"F32", {int64_t(l.srm_kernel.size())}, l.srm_kernel, {}};
+    if (!l.ref_kernel.empty()) st.tensors[p + "ref_kernel"] = StTensor{"F32", {int64_t(l.ref_kernel.size())}, l.ref_kernel, {}};
+    if (!l.delay.empty()) st.tensors[p + "delay"] = StTensor{"F32", {int64_t(l.delay.size())}, l.delay, {}};
+  }
+  write_safetensors(path, st);
+}
+
+}  // namespace spikems

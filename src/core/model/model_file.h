@@ -1,0 +1,91 @@
+// The spikems model file: one format shared by training (LibTorch) and the streaming runtime.
+// A safetensors file (see safetensors.h) whose "__metadata__" holds
+//   "format": "spikems-model", "version": "1", "spec": <JSON text of ModelSpec>
+// and whose tensors are, for each layer k (0-based):
+//   layers.k.weight      F32, conv [C_out, C_in, kH, kW], transposed conv [C_in, C_out, kH, kW]
+//   layers.k.srm_kernel  F32 [K]   sampled spike-response kernel (FIR layers only)
+//   layers.k.ref_kernel  F32 [R]   sampled refractory kernel (FIR layers only)
+//   layers.k.delay       F32 [C_out] axonal delay in time steps (optional)
+// The full description is docs/model-format.md.
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace spikems {
+
+inline constexpr int kModelFormatVersion = 1;
+
+enum class LayerKind { Conv, ConvTranspose };
+// Refractory kernel shape: the SpikeMS authors' delayed exponential
+//   nu[0] = 0, nu[n] = -scale_ref*theta*exp(-(n-1)Ts/tau_r) (n >= 1),
+// or SLAYER's alpha form nu(t) = -scale_ref*theta*(t/tau_r)*exp(1 - t/tau_r).
+enum class RefractoryShape { SpikeMS, Slayer };
+// FIR: the sampled, truncated kernels stored in the file (as SLAYER computes them).
+// IIR: the exact recursions of the same continuous kernels (no truncation, O(1) state).
+enum class Discretisation { FIR, IIR };
+// Surrogate gradient scale: SLAYER divides by tau_rho*theta; the SpikeMS code by theta.
+enum class SurrogateForm { Slayer, SpikeMS };
+
+struct NeuronParams {
+  float theta = 0.22f;
+  float tau_s = 2.f;    // ms
+  float tau_r = 1.f;    // ms
+  float scale_ref = 2.f;
+  float tau_rho = 0.3f;
+  float scale_rho = 0.2f;
+  RefractoryShape refractory = RefractoryShape::SpikeMS;
+  Discretisation discretisation = Discretisation::FIR;
+  SurrogateForm surrogate = SurrogateForm::SpikeMS;
+};
+
+struct LayerSpec {
+  LayerKind kind = LayerKind::Conv;
+  int in_channels = 0, out_channels = 0;
+  int kernel = 3, stride = 2, padding = 0, output_padding = 0;
+  NeuronParams neuron;
+  std::vector<float> weight;      // PyTorch layout (see above)
+  std::vector<float> srm_kernel;  // FIR only
+  std::vector<float> ref_kernel;  // FIR only
+  std::vector<float> delay;       // optional, per output channel, in steps
+  int64_t weight_count() const { return int64_t(in_channels) * out_channels * kernel * kernel; }
+  // Spatial output size for an input size (conv: floor((H+2p-k)/s)+1;
+  // convT: (H-1)s - 2p + k + output_padding).
+  int output_size(int in) const;
+};
+
+struct ModelSpec {
+  std::string name = "spikems";
+  double time_step_ms = 1.0;
+  // Sensor size the model was trained for (0 = any). The runtime checks it when set.
+  int input_width = 0, input_height = 0;
+  std::vector<LayerSpec> layers;
+  nlohmann::json training = nlohmann::json::object();  // free provenance (config, epochs, ...)
+
+  // Output spatial size for an input size (through all layers).
+  std::pair<int, int> output_size(int height, int width) const;
+  // Checks channel chaining, kernel/stride sanity, weight and kernel lengths; throws Error.
+  void validate(const std::string& source) const;
+};
+
+// Sampled kernels exactly as the SLAYER/SpikeMS code computes them (double precision, then
+// float32). Time step and taus in ms.
+std::vector<float> sample_srm_kernel(double tau_s, double ts);
+std::vector<float> sample_refractory_kernel(const NeuronParams& n, double ts);
+// Fills srm_kernel/ref_kernel of every FIR layer from its neuron parameters.
+void fill_fir_kernels(ModelSpec& spec);
+
+// The SpikeMS network of the paper (BRIEF.md section 3), weights zero-filled.
+// padded=false: the authors' geometry (padding 0, output one pixel smaller per 8);
+// padded=true: padding 1 and output_padding 1, so a multiple-of-8 input keeps its size.
+ModelSpec spikems_architecture(bool padded, Discretisation d = Discretisation::FIR);
+
+ModelSpec load_model(const std::string& path);
+void save_model(const std::string& path, const ModelSpec& spec);  // atomic
+
+nlohmann::json spec_to_json(const ModelSpec& spec);  // without weights
+ModelSpec spec_from_json(const nlohmann::json& j, const std::string& source);
+
+}  // namespace spikems

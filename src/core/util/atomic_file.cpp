@@ -1,0 +1,98 @@
+#include "core/util/atomic_file.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <csignal>
+#include <cstring>
+#include <mutex>
+#include <random>
+#include <set>
+
+#include "core/util/error.h"
+
+namespace spikems {
+namespace {
+
+std::mutex g_mu;
+std::set<std::string>& live_temps() {
+  static std::set<std::string> s;
+  return s;
+}
+
+std::string make_temp_name(const std::string& target) {
+  static std::atomic<unsigned> counter{0};
+  std::random_device rd;
+  return target + ".tmp." + std::to_string(getpid()) + "." + std::to_string(rd() % 100000) +
+         "." + std::to_string(counter++);
+}
+
+}  // namespace
+
+AtomicFile::AtomicFile(std::string target) : target_(std::move(target)) {
+  if (target_.empty()) throw Error("output path is empty");
+  temp_ = make_temp_name(target_);
+  std::lock_guard<std::mutex> lock(g_mu);
+  live_temps().insert(temp_);
+}
+
+AtomicFile::~AtomicFile() {
+  if (f_) std::fclose(f_);
+  if (!committed_) std::remove(temp_.c_str());
+  std::lock_guard<std::mutex> lock(g_mu);
+  live_temps().erase(temp_);
+}
+
+std::FILE* AtomicFile::handle() {
+  if (!f_) {
+    f_ = std::fopen(temp_.c_str(), "wb");
+    if (!f_) fail(target_, "", std::string("cannot create temporary file: ") + std::strerror(errno));
+  }
+  return f_;
+}
+
+void AtomicFile::write(const void* data, size_t n) {
+  if (n == 0) return;
+  if (std::fwrite(data, 1, n, handle()) != n)
+    fail(target_, "", std::string("write failed: ") + std::strerror(errno));
+}
+
+void AtomicFile::commit() {
+  if (committed_) return;
+  if (f_) {
+    if (std::fflush(f_) != 0) fail(target_, "", std::string("flush failed: ") + std::strerror(errno));
+    fsync(fileno(f_));
+    std::fclose(f_);
+    f_ = nullptr;
+  } else if (access(temp_.c_str(), F_OK) != 0) {
+    handle();  // an empty output is still an output
+    std::fclose(f_);
+    f_ = nullptr;
+  }
+  if (std::rename(temp_.c_str(), target_.c_str()) != 0)
+    fail(target_, "", std::string("cannot rename temporary file into place: ") + std::strerror(errno));
+  committed_ = true;
+}
+
+void write_file_atomic(const std::string& path, const std::string& bytes) {
+  AtomicFile f(path);
+  f.write(bytes);
+  f.commit();
+}
+
+namespace {
+extern "C" void cleanup_on_signal(int sig) {
+  // Best effort: unlink is async-signal-safe; the set is not locked (we are exiting).
+  for (const auto& p : live_temps()) unlink(p.c_str());
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
+}  // namespace
+
+void install_interrupt_cleanup() {
+  std::signal(SIGINT, cleanup_on_signal);
+  std::signal(SIGTERM, cleanup_on_signal);
+}
+
+}  // namespace spikems

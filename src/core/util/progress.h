@@ -1,0 +1,31 @@
+// A progress bar on stderr with rate and ETA, for every long command. Redraws at most
+// 10 times a second; prints a final line on finish(). Quiet when disabled.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+namespace spikems {
+
+class ProgressBar {
+ public:
+  ProgressBar(std::string label, uint64_t total, std::string unit = "it", bool enabled = true);
+  ~ProgressBar();
+  void update(uint64_t done);  // absolute progress
+  void add(uint64_t n) { update(done_ + n); }
+  void finish();
+
+ private:
+  void draw(bool final);
+  std::string label_, unit_;
+  uint64_t total_, done_ = 0;
+  bool enabled_, finished_ = false;
+  std::chrono::steady_clock::time_point start_, last_draw_;
+};
+
+// "1.23 M", "456 k": numbers people can read at a glance.
+std::string human_count(double v);
+std::string human_duration(double seconds);
+
+}  // namespace spikems
