@@ -18,15 +18,18 @@ void add_read_flags(CLI::App* cmd, ReadFlags& f) {
   cmd->add_option("--time-unit", f.time_unit, "Text input: unit of t (auto, s, us)")
       ->check(CLI::IsMember({"auto", "s", "us"}));
   cmd->add_option("--format", f.format, "Force the input format (see `spikems formats`)");
-  cmd->add_option("--width", f.width, "Sensor width where the file does not say")->check(CLI::Range(1, 65535));
-  cmd->add_option("--height", f.height, "Sensor height where the file does not say")->check(CLI::Range(1, 65535));
+  cmd->add_option("--width", f.width, "Sensor width where the file does not say")
+      ->check(CLI::Range(1, 65535));
+  cmd->add_option("--height", f.height, "Sensor height where the file does not say")
+      ->check(CLI::Range(1, 65535));
 }
 
 }  // namespace spikems::cli
 
 int main(int argc, char** argv) {
   using namespace spikems::cli;
-  CLI::App app{"spikems: motion segmentation of event-camera streams with a spiking neural network"};
+  CLI::App app{
+      "spikems: motion segmentation of event-camera streams with a spiking neural network"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "spikems 0.1.0");
   auto& reg = command_registry();

@@ -40,11 +40,17 @@ void EventStream::push_back(int64_t tt, uint16_t xx, uint16_t yy, uint8_t pp, ui
   label.push_back(l);
 }
 
-void EventStream::push_back(const Event& e) { push_back(e.t, e.x, e.y, e.p, e.label); }
+void EventStream::push_back(const Event& e) {
+  push_back(e.t, e.x, e.y, e.p, e.label);
+}
 
-void EventStream::add_zero_labels() { label.assign(t.size(), 0); }
+void EventStream::add_zero_labels() {
+  label.assign(t.size(), 0);
+}
 
-void EventStream::append(const EventStream& o) { append(o, 0, o.size()); }
+void EventStream::append(const EventStream& o) {
+  append(o, 0, o.size());
+}
 
 void EventStream::append(const EventStream& o, size_t b, size_t e) {
   bool was_empty = empty();
@@ -99,7 +105,9 @@ void EventStream::validate(const std::string& source) const {
   }
 }
 
-bool EventStream::is_time_sorted() const { return std::is_sorted(t.begin(), t.end()); }
+bool EventStream::is_time_sorted() const {
+  return std::is_sorted(t.begin(), t.end());
+}
 
 void EventStream::sort_by_time() {
   if (is_time_sorted()) return;

@@ -27,7 +27,8 @@ namespace {
 
 std::string lower_extension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
 
@@ -99,8 +100,9 @@ const FormatInfo& detect_format(const std::string& path) {
     }
   }
   if (!best)
-    fail(path, "", "unrecognised event format (known: " + known_format_names() +
-                       "); pass --format NAME if the file is one of them");
+    fail(path, "",
+         "unrecognised event format (known: " + known_format_names() +
+             "); pass --format NAME if the file is one of them");
   return *best;
 }
 
@@ -113,26 +115,31 @@ const FormatInfo& format_for_output(const std::string& path, const std::string& 
   }
   std::string ext = lower_extension(path);
   for (const auto& f : formats())
-    if (f.open_writer && std::find(f.extensions.begin(), f.extensions.end(), ext) != f.extensions.end())
+    if (f.open_writer &&
+        std::find(f.extensions.begin(), f.extensions.end(), ext) != f.extensions.end())
       return f;
   std::string writable;
   for (const auto& f : formats())
     if (f.open_writer) writable += (writable.empty() ? "" : ", ") + f.name;
-  fail(path, "", "cannot tell the output format from the extension '" + ext +
-                     "'; pass --format NAME (writable: " + writable + ")");
+  fail(path, "",
+       "cannot tell the output format from the extension '" + ext +
+           "'; pass --format NAME (writable: " + writable + ")");
 }
 
 std::unique_ptr<EventReader> open_reader(const std::string& path, const ReadOptions& opt) {
   const FormatInfo* f = nullptr;
   if (!opt.format.empty()) {
     f = find_format(opt.format);
-    if (!f) fail(path, "", "unknown format '" + opt.format + "' (known: " + known_format_names() + ")");
+    if (!f)
+      fail(path, "", "unknown format '" + opt.format + "' (known: " + known_format_names() + ")");
   } else {
     f = &detect_format(path);
   }
   std::unique_ptr<EventReader> r;
-  if (f->open_path) r = f->open_path(path, opt);
-  else r = f->open_bytes(open_file_source(path), opt);
+  if (f->open_path)
+    r = f->open_path(path, opt);
+  else
+    r = f->open_bytes(open_file_source(path), opt);
   return std::make_unique<ValidatingReader>(std::move(r), path, opt);
 }
 

@@ -17,10 +17,10 @@
 namespace spikems {
 
 struct ReadOptions {
-  bool sort = false;            // accept out-of-order timestamps and sort them (else an error)
+  bool sort = false;               // accept out-of-order timestamps and sort them (else an error)
   std::string time_unit = "auto";  // text formats: "auto", "s", "us"
-  SensorSize sensor;            // override or supply the sensor size where a file lacks it
-  std::string format;           // force a format by name (empty: detect)
+  SensorSize sensor;               // override or supply the sensor size where a file lacks it
+  std::string format;              // force a format by name (empty: detect)
 };
 
 class EventReader {
@@ -48,8 +48,8 @@ class EventWriter {
 
 struct WriteOptions {
   std::string compression = "";  // format-specific: "lz4", "zstd", "deflate", "none"
-  int level = -1;                 // compression level (-1: format default)
-  std::string time_unit = "us";   // text formats
+  int level = -1;                // compression level (-1: format default)
+  std::string time_unit = "us";  // text formats
 };
 
 struct FormatInfo {
@@ -61,7 +61,7 @@ struct FormatInfo {
   std::function<std::unique_ptr<EventReader>(std::unique_ptr<ByteSource>, const ReadOptions&)>
       open_bytes;  // null for formats read by path only (HDF5, folders)
   std::function<std::unique_ptr<EventReader>(const std::string& path, const ReadOptions&)>
-      open_path;   // null when open_bytes suffices
+      open_path;  // null when open_bytes suffices
   std::function<std::unique_ptr<EventWriter>(const std::string& path, SensorSize,
                                              const WriteOptions&)>
       open_writer;  // null: read-only format

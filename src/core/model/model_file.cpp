@@ -22,7 +22,8 @@ std::pair<int, int> ModelSpec::output_size(int h, int w) const {
 
 void ModelSpec::validate(const std::string& src) const {
   if (layers.empty()) fail(src, "", "model has no layers");
-  if (!(time_step_ms > 0) || time_step_ms > 1000) fail(src, "", "time step must be in (0, 1000] ms");
+  if (!(time_step_ms > 0) || time_step_ms > 1000)
+    fail(src, "", "time step must be in (0, 1000] ms");
   if (input_width < 0 || input_height < 0 || input_width > 65535 || input_height > 65535)
     fail(src, "", "input size out of range");
   for (size_t k = 0; k < layers.size(); ++k) {
@@ -31,14 +32,16 @@ void ModelSpec::validate(const std::string& src) const {
     if (l.in_channels <= 0 || l.out_channels <= 0 || l.in_channels > 4096 || l.out_channels > 4096)
       fail(src, where, "channel counts out of range");
     if (k > 0 && l.in_channels != layers[k - 1].out_channels)
-      fail(src, where, "takes " + std::to_string(l.in_channels) + " channels but layer " +
-                           std::to_string(k - 1) + " gives " + std::to_string(layers[k - 1].out_channels));
+      fail(src, where,
+           "takes " + std::to_string(l.in_channels) + " channels but layer " +
+               std::to_string(k - 1) + " gives " + std::to_string(layers[k - 1].out_channels));
     if (l.kernel <= 0 || l.kernel > 15 || l.stride <= 0 || l.stride > 8 || l.padding < 0 ||
         l.padding >= l.kernel || l.output_padding < 0 || l.output_padding >= l.stride)
       fail(src, where, "kernel, stride or padding out of range");
     if (int64_t(l.weight.size()) != l.weight_count())
-      fail(src, where, "weight has " + std::to_string(l.weight.size()) + " values, expected " +
-                           std::to_string(l.weight_count()));
+      fail(src, where,
+           "weight has " + std::to_string(l.weight.size()) + " values, expected " +
+               std::to_string(l.weight_count()));
     const auto& n = l.neuron;
     if (!(n.theta > 0) || !(n.tau_s > 0) || !(n.tau_r > 0) || !(n.scale_ref >= 0) ||
         !std::isfinite(n.theta) || !std::isfinite(n.tau_s) || !std::isfinite(n.tau_r))
@@ -106,7 +109,11 @@ void fill_fir_kernels(ModelSpec& spec) {
 }
 
 ModelSpec spikems_architecture(bool padded, Discretisation d) {
-  struct Row { LayerKind k; int ci, co; float theta, ts, tr, rho; };
+  struct Row {
+    LayerKind k;
+    int ci, co;
+    float theta, ts, tr, rho;
+  };
   const Row rows[] = {{LayerKind::Conv, 2, 16, 0.22f, 2, 1, 0.20f},
                       {LayerKind::Conv, 16, 32, 0.22f, 2, 1, 0.30f},
                       {LayerKind::Conv, 32, 64, 0.24f, 4, 3, 0.30f},
@@ -136,11 +143,14 @@ ModelSpec spikems_architecture(bool padded, Discretisation d) {
 
 namespace {
 
-const char* kind_name(LayerKind k) { return k == LayerKind::Conv ? "conv" : "conv_transpose"; }
+const char* kind_name(LayerKind k) {
+  return k == LayerKind::Conv ? "conv" : "conv_transpose";
+}
 
 template <typename E>
-E parse_enum(const nlohmann::json& j, const char* key, std::initializer_list<std::pair<const char*, E>> opts,
-             E def, const std::string& src, const std::string& where) {
+E parse_enum(const nlohmann::json& j, const char* key,
+             std::initializer_list<std::pair<const char*, E>> opts, E def, const std::string& src,
+             const std::string& where) {
   if (!j.contains(key)) return def;
   std::string v = j[key].get<std::string>();
   for (auto& [n, e] : opts)
@@ -195,8 +205,9 @@ ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
       const auto& lj = j["layers"][k];
       std::string where = "layer " + std::to_string(k);
       LayerSpec l;
-      l.kind = parse_enum<LayerKind>(lj, "kind", {{"conv", LayerKind::Conv}, {"conv_transpose", LayerKind::ConvTranspose}},
-                                     LayerKind::Conv, src, where);
+      l.kind = parse_enum<LayerKind>(
+          lj, "kind", {{"conv", LayerKind::Conv}, {"conv_transpose", LayerKind::ConvTranspose}},
+          LayerKind::Conv, src, where);
       l.in_channels = lj.at("in_channels");
       l.out_channels = lj.at("out_channels");
       l.kernel = lj.value("kernel", 3);
@@ -211,12 +222,16 @@ ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
       n.scale_ref = nj.value("scale_ref", 2.f);
       n.tau_rho = nj.value("tau_rho", 0.3f);
       n.scale_rho = nj.value("scale_rho", 1.f);
-      n.refractory = parse_enum<RefractoryShape>(nj, "refractory", {{"spikems", RefractoryShape::SpikeMS}, {"slayer", RefractoryShape::Slayer}},
-                                                 RefractoryShape::SpikeMS, src, where);
-      n.discretisation = parse_enum<Discretisation>(nj, "discretisation", {{"fir", Discretisation::FIR}, {"iir", Discretisation::IIR}},
-                                                    Discretisation::FIR, src, where);
-      n.surrogate = parse_enum<SurrogateForm>(nj, "surrogate", {{"spikems", SurrogateForm::SpikeMS}, {"slayer", SurrogateForm::Slayer}},
-                                              SurrogateForm::SpikeMS, src, where);
+      n.refractory = parse_enum<RefractoryShape>(
+          nj, "refractory",
+          {{"spikems", RefractoryShape::SpikeMS}, {"slayer", RefractoryShape::Slayer}},
+          RefractoryShape::SpikeMS, src, where);
+      n.discretisation = parse_enum<Discretisation>(
+          nj, "discretisation", {{"fir", Discretisation::FIR}, {"iir", Discretisation::IIR}},
+          Discretisation::FIR, src, where);
+      n.surrogate = parse_enum<SurrogateForm>(
+          nj, "surrogate", {{"spikems", SurrogateForm::SpikeMS}, {"slayer", SurrogateForm::Slayer}},
+          SurrogateForm::SpikeMS, src, where);
       s.layers.push_back(std::move(l));
     }
   } catch (const nlohmann::json::exception& e) {
@@ -229,13 +244,15 @@ ModelSpec load_model(const std::string& path) {
   SafeTensors st = read_safetensors(path);
   auto fmt = st.metadata.find("format");
   if (fmt == st.metadata.end() || fmt->second != "spikems-model")
-    fail(path, "", "not a spikems model file (metadata 'format' is not 'spikems-model'); "
-                   "import other weights with `spikems import-slayer`");
+    fail(path, "",
+         "not a spikems model file (metadata 'format' is not 'spikems-model'); "
+         "import other weights with `spikems import-slayer`");
   auto ver = st.metadata.find("version");
   if (ver == st.metadata.end() || ver->second != std::to_string(kModelFormatVersion))
-    fail(path, "", "model file version " + (ver == st.metadata.end() ? std::string("?") : ver->second) +
-                       " is not supported (this spikems reads version " +
-                       std::to_string(kModelFormatVersion) + ")");
+    fail(path, "",
+         "model file version " + (ver == st.metadata.end() ? std::string("?") : ver->second) +
+             " is not supported (this spikems reads version " +
+             std::to_string(kModelFormatVersion) + ")");
   nlohmann::json j;
   try {
     j = nlohmann::json::parse(st.metadata.at("spec"));
@@ -290,9 +307,14 @@ void save_model(const std::string& path, const ModelSpec& s) {
                   : std::vector<int64_t>{l.in_channels, l.out_channels, l.kernel, l.kernel};
     w.f32 = l.weight;
     st.tensors[p + "weight"] = w;
-    if (!l.srm_kernel.empty()) st.tensors[p + "srm_kernel"] = StTensor{"F32", {int64_t(l.srm_kernel.size())}, l.srm_kernel, {}};
-    if (!l.ref_kernel.empty()) st.tensors[p + "ref_kernel"] = StTensor{"F32", {int64_t(l.ref_kernel.size())}, l.ref_kernel, {}};
-    if (!l.delay.empty()) st.tensors[p + "delay"] = StTensor{"F32", {int64_t(l.delay.size())}, l.delay, {}};
+    if (!l.srm_kernel.empty())
+      st.tensors[p + "srm_kernel"] =
+          StTensor{"F32", {int64_t(l.srm_kernel.size())}, l.srm_kernel, {}};
+    if (!l.ref_kernel.empty())
+      st.tensors[p + "ref_kernel"] =
+          StTensor{"F32", {int64_t(l.ref_kernel.size())}, l.ref_kernel, {}};
+    if (!l.delay.empty())
+      st.tensors[p + "delay"] = StTensor{"F32", {int64_t(l.delay.size())}, l.delay, {}};
   }
   write_safetensors(path, st);
 }

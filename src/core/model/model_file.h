@@ -31,8 +31,8 @@ enum class SurrogateForm { Slayer, SpikeMS };
 
 struct NeuronParams {
   float theta = 0.22f;
-  float tau_s = 2.f;    // ms
-  float tau_r = 1.f;    // ms
+  float tau_s = 2.f;  // ms
+  float tau_r = 1.f;  // ms
   float scale_ref = 2.f;
   float tau_rho = 0.3f;
   float scale_rho = 0.2f;

@@ -20,8 +20,9 @@ SafeTensors parse_safetensors(const std::vector<uint8_t>& bytes, const std::stri
   if (bytes.size() < 8) fail_at_byte(source, 0, "file is truncated: no safetensors header length");
   uint64_t hlen = load_le64(bytes.data());
   if (hlen > 100'000'000 || 8 + hlen > bytes.size())
-    fail_at_byte(source, 0, "header length " + std::to_string(hlen) +
-                                " does not fit in the file (not a safetensors model, or truncated)");
+    fail_at_byte(source, 0,
+                 "header length " + std::to_string(hlen) +
+                     " does not fit in the file (not a safetensors model, or truncated)");
   nlohmann::json h;
   try {
     h = nlohmann::json::parse(bytes.begin() + 8, bytes.begin() + 8 + long(hlen));
@@ -36,14 +37,16 @@ SafeTensors parse_safetensors(const std::vector<uint8_t>& bytes, const std::stri
     if (it.key() == "__metadata__") {
       if (!it->is_object()) fail_at_byte(source, 8, "__metadata__ is not an object");
       for (auto m = it->begin(); m != it->end(); ++m) {
-        if (!m->is_string()) fail_at_byte(source, 8, "metadata value '" + m.key() + "' is not a string");
+        if (!m->is_string())
+          fail_at_byte(source, 8, "metadata value '" + m.key() + "' is not a string");
         st.metadata[m.key()] = m->get<std::string>();
       }
       continue;
     }
     const auto& d = *it;
     const std::string where = "tensor '" + it.key() + "'";
-    if (!d.is_object() || !d.contains("dtype") || !d.contains("shape") || !d.contains("data_offsets"))
+    if (!d.is_object() || !d.contains("dtype") || !d.contains("shape") ||
+        !d.contains("data_offsets"))
       fail_at_byte(source, 8, where + " lacks dtype, shape or data_offsets");
     StTensor t;
     try {
@@ -56,7 +59,8 @@ SafeTensors parse_safetensors(const std::vector<uint8_t>& bytes, const std::stri
         fail_at_byte(source, 8, where + " has dtype " + t.dtype + " (spikems reads F32 and I32)");
       int64_t n = 1;
       for (auto s : t.shape) {
-        if (s < 0 || s > (int64_t(1) << 31)) fail_at_byte(source, 8, where + " has an absurd shape");
+        if (s < 0 || s > (int64_t(1) << 31))
+          fail_at_byte(source, 8, where + " has an absurd shape");
         n *= s;
         if (n > (int64_t(1) << 34)) fail_at_byte(source, 8, where + " has an absurd shape");
       }

@@ -24,8 +24,8 @@ std::set<std::string>& live_temps() {
 std::string make_temp_name(const std::string& target) {
   static std::atomic<unsigned> counter{0};
   std::random_device rd;
-  return target + ".tmp." + std::to_string(getpid()) + "." + std::to_string(rd() % 100000) +
-         "." + std::to_string(counter++);
+  return target + ".tmp." + std::to_string(getpid()) + "." + std::to_string(rd() % 100000) + "." +
+         std::to_string(counter++);
 }
 
 }  // namespace
@@ -47,7 +47,8 @@ AtomicFile::~AtomicFile() {
 std::FILE* AtomicFile::handle() {
   if (!f_) {
     f_ = std::fopen(temp_.c_str(), "wb");
-    if (!f_) fail(target_, "", std::string("cannot create temporary file: ") + std::strerror(errno));
+    if (!f_)
+      fail(target_, "", std::string("cannot create temporary file: ") + std::strerror(errno));
   }
   return f_;
 }
@@ -61,7 +62,8 @@ void AtomicFile::write(const void* data, size_t n) {
 void AtomicFile::commit() {
   if (committed_) return;
   if (f_) {
-    if (std::fflush(f_) != 0) fail(target_, "", std::string("flush failed: ") + std::strerror(errno));
+    if (std::fflush(f_) != 0)
+      fail(target_, "", std::string("flush failed: ") + std::strerror(errno));
     fsync(fileno(f_));
     std::fclose(f_);
     f_ = nullptr;
@@ -71,7 +73,8 @@ void AtomicFile::commit() {
     f_ = nullptr;
   }
   if (std::rename(temp_.c_str(), target_.c_str()) != 0)
-    fail(target_, "", std::string("cannot rename temporary file into place: ") + std::strerror(errno));
+    fail(target_, "",
+         std::string("cannot rename temporary file into place: ") + std::strerror(errno));
   committed_ = true;
 }
 

@@ -86,7 +86,9 @@ class FileSource final : public ByteSource {
 
 class MemorySource final : public ByteSource {
  public:
-  MemorySource(const uint8_t* d, size_t n, std::string name) : d_(d), n_(n) { name_ = std::move(name); }
+  MemorySource(const uint8_t* d, size_t n, std::string name) : d_(d), n_(n) {
+    name_ = std::move(name);
+  }
   size_t read_some(void* dst, size_t n) override {
     size_t r = std::min<uint64_t>(n, n_ - std::min<uint64_t>(offset_, n_));
     if (r) std::memcpy(dst, d_ + offset_, r);

@@ -17,6 +17,8 @@ void install_interrupt_flag() {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
 }
-bool interrupted() { return g_signals.load(std::memory_order_relaxed) > 0; }
+bool interrupted() {
+  return g_signals.load(std::memory_order_relaxed) > 0;
+}
 
 }  // namespace spikems

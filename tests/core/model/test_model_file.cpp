@@ -1,0 +1,176 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "common/test_paths.h"
+#include "core/model/model_file.h"
+#include "core/model/safetensors.h"
+#include "core/util/byte_source.h"
+#include "core/util/error.h"
+
+using namespace spikems;
+
+// Kernel values from ../shared/reference/spikems-evimo/README.md (the authors' checkpoint
+// buffers), so our sampling matches their code bit for bit in float32.
+TEST(Kernels, SrmTau2MatchesAuthorsBuffer) {
+  const float want[] = {0,
+                        0.824360609f,
+                        1,
+                        0.909796f,
+                        0.735758901f,
+                        0.557825387f,
+                        0.406005859f,
+                        0.287297487f,
+                        0.199148268f,
+                        0.135888219f,
+                        0.091578193f,
+                        0.0610994808f,
+                        0.0404276811f,
+                        0.0265640151f,
+                        0.017351266f,
+                        0.0112757944f};
+  auto k = sample_srm_kernel(2.0, 1.0);
+  ASSERT_EQ(k.size(), 16u);
+  for (size_t i = 0; i < k.size(); ++i) EXPECT_FLOAT_EQ(k[i], want[i]) << i;
+}
+
+TEST(Kernels, SrmTau4Has31Taps) {
+  auto k = sample_srm_kernel(4.0, 1.0);
+  ASSERT_EQ(k.size(), 31u);
+  EXPECT_FLOAT_EQ(k[1], 0.529250026f);
+  EXPECT_FLOAT_EQ(k[4], 1.0f);
+  EXPECT_FLOAT_EQ(k[30], 0.0112757944f);
+}
+
+TEST(Kernels, RefractorySpikeMSMatchesAuthorsBuffer) {
+  NeuronParams n;
+  n.theta = 0.22f;
+  n.tau_r = 1;
+  n.scale_ref = 2;
+  auto k = sample_refractory_kernel(n, 1.0);
+  const float want[] = {0, -0.439999998f, -0.161866948f, -0.0595475249f, -0.0219063107f};
+  ASSERT_EQ(k.size(), 5u);
+  for (size_t i = 0; i < 5; ++i) EXPECT_FLOAT_EQ(k[i], want[i]) << i;
+  n.theta = 0.24f;
+  n.tau_r = 3;
+  k = sample_refractory_kernel(n, 1.0);
+  ASSERT_EQ(k.size(), 13u);
+  EXPECT_FLOAT_EQ(k[1], -0.479999989f);
+  EXPECT_FLOAT_EQ(k[12], -0.012269536f);
+}
+
+TEST(Kernels, RefractorySlayerIsAlphaShaped) {
+  NeuronParams n;
+  n.theta = 0.5f;
+  n.tau_r = 2;
+  n.scale_ref = 2;
+  n.refractory = RefractoryShape::Slayer;
+  auto k = sample_refractory_kernel(n, 1.0);
+  EXPECT_FLOAT_EQ(k[0], 0.f);
+  EXPECT_FLOAT_EQ(k[2], -1.0f);  // peak -scale_ref*theta at t = tau_r
+  EXPECT_NEAR(k[1], -1.0 * 0.5 * std::exp(0.5), 1e-6);
+}
+
+TEST(Architecture, SpikeMSHas46656WeightsAndPaperGeometry) {
+  ModelSpec s = spikems_architecture(false);
+  int64_t total = 0;
+  for (const auto& l : s.layers) total += l.weight_count();
+  EXPECT_EQ(total, 46656);  // BRIEF.md section 3
+  EXPECT_EQ(s.output_size(64, 80), std::make_pair(63, 79));
+  EXPECT_EQ(s.output_size(180, 190), std::make_pair(175, 183));
+  ModelSpec p = spikems_architecture(true);
+  EXPECT_EQ(p.output_size(256, 344), std::make_pair(256, 344));  // multiple of 8 keeps its size
+  EXPECT_EQ(p.layers[3].output_padding, 1);
+}
+
+static ModelSpec small_model() {
+  ModelSpec s = spikems_architecture(true, Discretisation::FIR);
+  s.input_width = 64;
+  s.input_height = 48;
+  for (auto& l : s.layers)
+    for (size_t i = 0; i < l.weight.size(); ++i) l.weight[i] = float(std::sin(double(i) * 0.37));
+  s.layers[2].delay.assign(64, 0.5f);
+  s.layers[4].neuron.discretisation = Discretisation::IIR;
+  fill_fir_kernels(s);
+  return s;
+}
+
+TEST(ModelFile, RoundTripKeepsEverything) {
+  auto dir = test::scratch_dir();
+  ModelSpec s = small_model();
+  s.training = {{"epochs", 3}};
+  save_model(dir + "/m.safetensors", s);
+  ModelSpec r = load_model(dir + "/m.safetensors");
+  ASSERT_EQ(r.layers.size(), 6u);
+  EXPECT_EQ(r.input_width, 64);
+  EXPECT_EQ(r.training["epochs"], 3);
+  for (size_t k = 0; k < 6; ++k) {
+    EXPECT_EQ(r.layers[k].weight, s.layers[k].weight);
+    EXPECT_EQ(r.layers[k].srm_kernel, s.layers[k].srm_kernel);
+    EXPECT_EQ(r.layers[k].ref_kernel, s.layers[k].ref_kernel);
+    EXPECT_EQ(r.layers[k].kind, s.layers[k].kind);
+    EXPECT_EQ(r.layers[k].neuron.discretisation, s.layers[k].neuron.discretisation);
+    EXPECT_FLOAT_EQ(r.layers[k].neuron.theta, s.layers[k].neuron.theta);
+  }
+  EXPECT_TRUE(r.layers[4].srm_kernel.empty());  // IIR layers store no sampled kernels
+  EXPECT_EQ(r.layers[2].delay.size(), 64u);
+}
+
+static void expect_load_error(const std::string& path, const std::string& needle) {
+  try {
+    load_model(path);
+    FAIL() << "expected an error containing '" << needle << "'";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+}
+
+TEST(ModelFile, RejectsTruncatedAndCorruptFiles) {
+  auto dir = test::scratch_dir();
+  save_model(dir + "/m.safetensors", small_model());
+  auto bytes = read_file_bytes(dir + "/m.safetensors");
+  for (size_t cut : {size_t(0), size_t(5), size_t(12), bytes.size() / 2, bytes.size() - 1}) {
+    std::ofstream(dir + "/t.safetensors", std::ios::binary)
+        .write(reinterpret_cast<const char*>(bytes.data()), long(cut));
+    EXPECT_THROW(load_model(dir + "/t.safetensors"), Error) << "cut at " << cut;
+  }
+  auto bad = bytes;
+  bad[9] = '!';  // break the JSON header
+  std::ofstream(dir + "/j.safetensors", std::ios::binary)
+      .write(reinterpret_cast<const char*>(bad.data()), long(bad.size()));
+  expect_load_error(dir + "/j.safetensors", "JSON");
+}
+
+TEST(ModelFile, RejectsForeignVersionAndShapeMismatch) {
+  auto dir = test::scratch_dir();
+  ModelSpec s = small_model();
+  SafeTensors st;
+  st.metadata = {{"format", "spikems-model"}, {"version", "99"}, {"spec", spec_to_json(s).dump()}};
+  write_safetensors(dir + "/v.safetensors", st);
+  expect_load_error(dir + "/v.safetensors", "version 99");
+
+  st.metadata = {{"format", "something-else"}};
+  write_safetensors(dir + "/f.safetensors", st);
+  expect_load_error(dir + "/f.safetensors", "not a spikems model");
+
+  save_model(dir + "/ok.safetensors", s);
+  SafeTensors good = read_safetensors(dir + "/ok.safetensors");
+  good.tensors["layers.1.weight"].shape = {16, 32, 3, 3};  // transposed by mistake
+  write_safetensors(dir + "/s.safetensors", good);
+  expect_load_error(dir + "/s.safetensors", "layers.1.weight");
+}
+
+TEST(ModelFile, ValidateRejectsBrokenChainAndNaN) {
+  ModelSpec s = small_model();
+  s.layers[2].in_channels = 31;
+  EXPECT_THROW(s.validate("x"), Error);
+  s = small_model();
+  s.layers[0].weight[3] = std::nanf("");
+  EXPECT_THROW(s.validate("x"), Error);
+  s = small_model();
+  s.layers[1].neuron.theta = -1;
+  EXPECT_THROW(s.validate("x"), Error);
+}
