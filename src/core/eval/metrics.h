@@ -1,0 +1,55 @@
+// Segmentation metrics as the SpikeMS paper reports them (BRIEF.md section 6).
+// P = pixels predicted foreground in a window (any output spike), G = pixels with foreground
+// input events in the window. Masks are row-major H*W bytes, non-zero = set.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace spikems {
+
+struct MaskCounts {
+  uint64_t intersection = 0;  // |P ∩ G|
+  uint64_t predicted = 0;     // |P|
+  uint64_t truth = 0;         // |G|
+  uint64_t union_() const { return predicted + truth - intersection; }
+};
+
+MaskCounts count_masks(const std::vector<uint8_t>& predicted, const std::vector<uint8_t>& truth);
+
+// IoU = |P∩G| / |P∪G|; a window where both are empty scores 1 (nothing to find, nothing
+// claimed) and is reported as such; callers may skip such windows (see WindowScores).
+double iou(const MaskCounts& c);
+
+// Detection in the 0-MMS protocol: |P∩G| > 0.5|G| and |P∩G| > |P \ G|.
+bool is_detection(const MaskCounts& c);
+
+// Accumulates per-window scores of one sequence: mean ± std of IoU, detection rate.
+class WindowScores {
+ public:
+  // Windows with an empty G are skipped (no moving object to score), as in the paper.
+  void add(const MaskCounts& c);
+  size_t windows() const { return ious_.size(); }
+  size_t skipped() const { return skipped_; }
+  double mean_iou() const;
+  double std_iou() const;
+  double detection_rate() const;  // fraction of scored windows that are detections
+  const std::vector<double>& ious() const { return ious_; }
+
+ private:
+  std::vector<double> ious_;
+  size_t detections_ = 0, skipped_ = 0;
+};
+
+// Energy per BRIEF.md section 6 (Lee et al. 2020, 45 nm, 32-bit float).
+inline constexpr double kPicojoulePerAccumulate = 0.9;
+inline constexpr double kPicojoulePerMac = 4.6;
+inline double snn_energy_pj(double synops) {
+  return synops * kPicojoulePerAccumulate;
+}
+inline double ann_energy_pj(double macs) {
+  return macs * kPicojoulePerMac;
+}
+
+}  // namespace spikems
