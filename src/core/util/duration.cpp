@@ -22,7 +22,8 @@ int64_t parse_duration_us(const std::string& text) {
   // strtod also accepts "inf", "nan" and hex: reject those before parsing.
   for (char c : s)
     if (!(std::isdigit(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '+' ||
-          std::isalpha(static_cast<unsigned char>(c)) || static_cast<unsigned char>(c) >= 0x80))
+          c == ' ' || std::isalpha(static_cast<unsigned char>(c)) ||
+          static_cast<unsigned char>(c) >= 0x80))
       return bad("unexpected character '" + std::string(1, c) + "'");
   size_t num_end = 0;
   while (num_end < s.size() &&
