@@ -1,0 +1,303 @@
+#include "core/events/formats/zip.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <cstring>
+
+#include "core/util/atomic_file.h"
+#include "core/util/byte_source.h"
+#include "core/util/error.h"
+
+namespace spikems {
+namespace {
+
+constexpr uint32_t kLocalSig = 0x04034b50;
+constexpr uint32_t kCentralSig = 0x02014b50;
+constexpr uint32_t kEocdSig = 0x06054b50;
+constexpr uint32_t kEocd64Sig = 0x06064b50;
+constexpr uint32_t kEocd64LocatorSig = 0x07064b50;
+constexpr uint32_t k32 = 0xFFFFFFFFu;
+
+// Deflate cannot expand more than about 1032:1; a larger declared size is a corrupt header.
+constexpr uint64_t kMaxDeflateRatio = 1040;
+
+uint32_t crc32_of(const uint8_t* p, size_t n) {
+  uLong c = crc32(0L, Z_NULL, 0);
+  while (n > 0) {
+    uInt chunk = uInt(std::min<size_t>(n, 1u << 30));
+    c = crc32(c, p, chunk);
+    p += chunk;
+    n -= chunk;
+  }
+  return uint32_t(c);
+}
+
+// Bounds-checked view of the archive bytes.
+struct View {
+  const uint8_t* d;
+  size_t n;
+  const std::string& src;
+  void need(uint64_t off, uint64_t len, const char* what) const {
+    if (off > n || len > n - off)
+      fail_at_byte(src, off,
+                   std::string("ZIP archive is truncated or corrupt: ") + what + " (" +
+                       std::to_string(len) + " bytes) runs past the end of the " +
+                       std::to_string(n) + "-byte file");
+  }
+};
+
+// Replaces 0xFFFFFFFF fields of a central-directory entry from its ZIP64 extra field.
+void apply_zip64_extra(const View& v, uint64_t extra_off, uint16_t extra_len, ZipEntry& e,
+                       bool usize32, bool csize32, bool off32) {
+  uint64_t p = extra_off, end = extra_off + extra_len;
+  while (p + 4 <= end) {
+    uint16_t id = load_le16(v.d + p), len = load_le16(v.d + p + 2);
+    if (p + 4 + len > end) fail_at_byte(v.src, p, "ZIP extra field runs past its entry");
+    if (id == 0x0001) {
+      uint64_t q = p + 4, qend = q + len;
+      auto take = [&](uint64_t& field) {
+        if (q + 8 > qend) fail_at_byte(v.src, q, "ZIP64 extra field is too short");
+        field = load_le64(v.d + q);
+        q += 8;
+      };
+      if (usize32) take(e.uncompressed_size);
+      if (csize32) take(e.compressed_size);
+      if (off32) take(e.local_header_offset);
+      return;
+    }
+    p += 4 + len;
+  }
+  if (usize32 || csize32 || off32)
+    fail_at_byte(v.src, extra_off,
+                 "ZIP entry '" + e.name + "' needs a ZIP64 extra field, found none");
+}
+
+}  // namespace
+
+std::vector<ZipEntry> zip_list(const uint8_t* data, size_t n, const std::string& source) {
+  View v{data, n, source};
+  if (n < 22)
+    fail_at_byte(source, 0,
+                 "not a ZIP archive: file is " + std::to_string(n) + " bytes, too short");
+  if (load_le32(data) != kLocalSig && load_le32(data) != kEocdSig)
+    fail_at_byte(source, 0, "not a ZIP archive (npz): wrong magic bytes");
+  // The EOCD record sits at the end, followed by a comment of at most 65535 bytes.
+  uint64_t eocd = UINT64_MAX;
+  for (uint64_t p = n - 22;; --p) {
+    if (load_le32(data + p) == kEocdSig && p + 22 + load_le16(data + p + 20) == n) {
+      eocd = p;
+      break;
+    }
+    if (p == 0 || n - p > 22 + 65535) break;
+  }
+  if (eocd == UINT64_MAX)
+    fail_at_byte(source, n, "ZIP end-of-central-directory record not found (file truncated?)");
+  uint64_t count = load_le16(data + eocd + 10);
+  uint64_t cd_size = load_le32(data + eocd + 12);
+  uint64_t cd_off = load_le32(data + eocd + 16);
+  if (count == 0xFFFF || cd_size == k32 || cd_off == k32) {
+    if (eocd < 20 || load_le32(data + eocd - 20) != kEocd64LocatorSig)
+      fail_at_byte(source, eocd, "ZIP64 archive without a ZIP64 end-of-central-directory locator");
+    uint64_t z64 = load_le64(data + eocd - 20 + 8);
+    v.need(z64, 56, "ZIP64 end-of-central-directory record");
+    if (load_le32(data + z64) != kEocd64Sig)
+      fail_at_byte(source, z64, "bad ZIP64 end-of-central-directory signature");
+    count = load_le64(data + z64 + 32);
+    cd_size = load_le64(data + z64 + 40);
+    cd_off = load_le64(data + z64 + 48);
+  }
+  v.need(cd_off, cd_size, "central directory");
+  if (count > cd_size / 46)
+    fail_at_byte(source, eocd,
+                 "ZIP claims " + std::to_string(count) +
+                     " entries, more than its central directory can hold");
+  std::vector<ZipEntry> out;
+  out.reserve(count);
+  uint64_t p = cd_off, cd_end = cd_off + cd_size;
+  for (uint64_t i = 0; i < count; ++i) {
+    if (p + 46 > cd_end || load_le32(data + p) != kCentralSig)
+      fail_at_byte(source, p, "bad ZIP central directory entry " + std::to_string(i));
+    ZipEntry e;
+    e.flags = load_le16(data + p + 8);
+    e.method = load_le16(data + p + 10);
+    e.crc32 = load_le32(data + p + 16);
+    e.compressed_size = load_le32(data + p + 20);
+    e.uncompressed_size = load_le32(data + p + 24);
+    uint16_t name_len = load_le16(data + p + 28), extra_len = load_le16(data + p + 30),
+             comment_len = load_le16(data + p + 32);
+    e.local_header_offset = load_le32(data + p + 42);
+    if (p + 46 + name_len + extra_len + comment_len > cd_end)
+      fail_at_byte(source, p, "ZIP central directory entry runs past the directory");
+    e.name.assign(reinterpret_cast<const char*>(data + p + 46), name_len);
+    bool u32 = e.uncompressed_size == k32, c32 = e.compressed_size == k32,
+         o32 = e.local_header_offset == k32;
+    apply_zip64_extra(v, p + 46 + name_len, extra_len, e, u32, c32, o32);
+    out.push_back(std::move(e));
+    p += 46 + name_len + extra_len + comment_len;
+  }
+  return out;
+}
+
+std::vector<uint8_t> zip_extract(const uint8_t* data, size_t n, const ZipEntry& e,
+                                 const std::string& source) {
+  View v{data, n, source};
+  const std::string who = "ZIP member '" + e.name + "'";
+  v.need(e.local_header_offset, 30, "local header");
+  const uint8_t* lh = data + e.local_header_offset;
+  if (load_le32(lh) != kLocalSig)
+    fail_at_byte(source, e.local_header_offset, "bad local header signature for " + who);
+  if (e.flags & 1) fail_at_byte(source, e.local_header_offset, who + " is encrypted");
+  // Sizes come from the central directory: numpy's ZIP64 local headers hold placeholders.
+  uint64_t start = e.local_header_offset + 30 + load_le16(lh + 26) + load_le16(lh + 28);
+  v.need(start, e.compressed_size, (who + " data").c_str());
+  const uint8_t* src = data + start;
+  std::vector<uint8_t> out;
+  if (e.method == 0) {
+    if (e.compressed_size != e.uncompressed_size)
+      fail_at_byte(source, start, who + " is stored but its two sizes differ");
+    out.assign(src, src + e.compressed_size);
+  } else if (e.method == 8) {
+    if (e.uncompressed_size > e.compressed_size * kMaxDeflateRatio + 1024)
+      fail_at_byte(source, start,
+                   who + " declares " + std::to_string(e.uncompressed_size) +
+                       " bytes, impossible for " + std::to_string(e.compressed_size) +
+                       " deflated bytes (corrupt header)");
+    out.resize(e.uncompressed_size);
+    z_stream zs{};
+    if (inflateInit2(&zs, -15) != Z_OK) fail(source, "", "zlib inflateInit2 failed");
+    uint64_t in_left = e.compressed_size, out_left = out.size();
+    uint8_t dummy = 0;  // zlib rejects a null output pointer, even for empty members
+    zs.next_in = const_cast<Bytef*>(src);
+    zs.next_out = out.empty() ? &dummy : out.data();
+    int rc = Z_OK;
+    while (rc == Z_OK) {
+      if (zs.avail_in == 0 && in_left) {
+        zs.avail_in = uInt(std::min<uint64_t>(in_left, 1u << 30));
+        in_left -= zs.avail_in;
+      }
+      if (zs.avail_out == 0 && out_left) {
+        zs.avail_out = uInt(std::min<uint64_t>(out_left, 1u << 30));
+        out_left -= zs.avail_out;
+      }
+      rc = inflate(&zs, Z_NO_FLUSH);
+      if (rc == Z_BUF_ERROR && (zs.avail_in == 0 && in_left == 0)) break;  // input ended early
+      if (rc == Z_BUF_ERROR && zs.avail_out == 0 && out_left == 0) break;  // more than declared
+      if (rc == Z_BUF_ERROR) rc = Z_OK;
+    }
+    uint64_t produced = zs.total_out;
+    inflateEnd(&zs);
+    if (rc != Z_STREAM_END)
+      fail_at_byte(source, start,
+                   who + " has corrupt or truncated deflate data" +
+                       (zs.msg ? std::string(" (") + zs.msg + ")" : std::string()));
+    if (produced != e.uncompressed_size)
+      fail_at_byte(source, start,
+                   who + " inflates to " + std::to_string(produced) + " bytes, header says " +
+                       std::to_string(e.uncompressed_size));
+  } else {
+    fail_at_byte(source, e.local_header_offset,
+                 who + " uses compression method " + std::to_string(e.method) +
+                     "; only stored (0) and deflate (8) are supported");
+  }
+  if (crc32_of(out.data(), out.size()) != e.crc32)
+    fail_at_byte(source, start, who + " fails its CRC-32 check (corrupt data)");
+  return out;
+}
+
+ZipWriter::ZipWriter(AtomicFile& out, bool deflate, int level)
+    : out_(out), deflate_(deflate), level_(level < 0 ? 6 : std::min(level, 9)) {}
+
+void ZipWriter::add(const std::string& name, const uint8_t* data, size_t n) {
+  if (finished_) throw Error("ZipWriter::add after finish");
+  if (name.size() > 0xFFFF) fail(out_.target(), "", "ZIP member name too long");
+  ZipEntry e;
+  e.name = name;
+  e.crc32 = crc32_of(data, n);
+  e.uncompressed_size = n;
+  e.local_header_offset = offset_;
+  std::vector<uint8_t> packed;
+  const uint8_t* payload = data;
+  if (deflate_) {
+    e.method = 8;
+    z_stream zs{};
+    if (deflateInit2(&zs, level_, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK)
+      fail(out_.target(), "", "zlib deflateInit2 failed");
+    packed.resize(n + n / 1000 + 1024);  // >= deflateBound for raw deflate
+    zs.next_in = const_cast<Bytef*>(data);
+    zs.next_out = packed.data();
+    uint64_t in_left = n, out_left = packed.size();
+    int rc = Z_OK;
+    while (rc != Z_STREAM_END) {
+      if (zs.avail_in == 0 && in_left) {
+        zs.avail_in = uInt(std::min<uint64_t>(in_left, 1u << 30));
+        in_left -= zs.avail_in;
+      }
+      if (zs.avail_out == 0 && out_left) {
+        zs.avail_out = uInt(std::min<uint64_t>(out_left, 1u << 30));
+        out_left -= zs.avail_out;
+      }
+      rc = deflate(&zs, in_left == 0 ? Z_FINISH : Z_NO_FLUSH);
+      if (rc != Z_OK && rc != Z_STREAM_END && rc != Z_BUF_ERROR) break;
+      if (rc == Z_BUF_ERROR && zs.avail_out == 0 && out_left == 0) break;
+    }
+    e.compressed_size = zs.total_out;
+    deflateEnd(&zs);
+    if (rc != Z_STREAM_END) fail(out_.target(), "", "deflate failed for ZIP member '" + name + "'");
+    payload = packed.data();
+  } else {
+    e.compressed_size = n;
+  }
+  if (e.compressed_size >= k32 || e.uncompressed_size >= k32 || offset_ >= k32)
+    fail(out_.target(), "",
+         "ZIP member '" + name +
+             "' or the archive reaches 4 GiB; the npz writer has no ZIP64 "
+             "support: split the data into several files");
+  uint8_t h[30] = {};
+  store_le32(h, kLocalSig);
+  store_le16(h + 4, 20);
+  store_le16(h + 8, e.method);
+  store_le16(h + 12, 0x0021);  // fixed DOS date 1980-01-01: output is reproducible
+  store_le32(h + 14, e.crc32);
+  store_le32(h + 18, uint32_t(e.compressed_size));
+  store_le32(h + 22, uint32_t(e.uncompressed_size));
+  store_le16(h + 26, uint16_t(name.size()));
+  out_.write(h, 30);
+  out_.write(name);
+  out_.write(payload, e.compressed_size);
+  offset_ += 30 + name.size() + e.compressed_size;
+  entries_.push_back(std::move(e));
+}
+
+void ZipWriter::finish() {
+  if (finished_) return;
+  finished_ = true;
+  if (entries_.size() >= 0xFFFF) fail(out_.target(), "", "too many ZIP members (no ZIP64 support)");
+  uint64_t cd_start = offset_;
+  for (const auto& e : entries_) {
+    uint8_t h[46] = {};
+    store_le32(h, kCentralSig);
+    store_le16(h + 4, 20);
+    store_le16(h + 6, 20);
+    store_le16(h + 10, e.method);
+    store_le16(h + 14, 0x0021);
+    store_le32(h + 16, e.crc32);
+    store_le32(h + 20, uint32_t(e.compressed_size));
+    store_le32(h + 24, uint32_t(e.uncompressed_size));
+    store_le16(h + 28, uint16_t(e.name.size()));
+    store_le32(h + 42, uint32_t(e.local_header_offset));
+    out_.write(h, 46);
+    out_.write(e.name);
+    offset_ += 46 + e.name.size();
+  }
+  if (offset_ >= k32) fail(out_.target(), "", "ZIP archive reaches 4 GiB (no ZIP64 support)");
+  uint8_t z[22] = {};
+  store_le32(z, kEocdSig);
+  store_le16(z + 8, uint16_t(entries_.size()));
+  store_le16(z + 10, uint16_t(entries_.size()));
+  store_le32(z + 12, uint32_t(offset_ - cd_start));
+  store_le32(z + 16, uint32_t(cd_start));
+  out_.write(z, 22);
+}
+
+}  // namespace spikems
