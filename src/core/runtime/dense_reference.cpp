@@ -1,0 +1,140 @@
+#include "core/runtime/dense_reference.h"
+
+#include <cmath>
+
+#include "core/util/error.h"
+
+namespace spikems {
+
+double srm_kernel_value(const NeuronParams& n, double ts, int step) {
+  double t = step * ts / double(n.tau_s);
+  return t * std::exp(1.0 - t);
+}
+
+double refractory_kernel_value(const NeuronParams& n, double ts, int step) {
+  double mult = -double(n.scale_ref) * double(n.theta);
+  if (step <= 0) return 0.0;
+  if (n.refractory == RefractoryShape::SpikeMS)
+    return mult * std::exp(-(step - 1) * ts / double(n.tau_r));
+  double t = step * ts / double(n.tau_r);
+  return mult * t * std::exp(1.0 - t);
+}
+
+namespace {
+
+// Synaptic op of one time step: a [C_in, H, W] -> u [C_out, Ho, Wo] (u zeroed by caller).
+template <typename F>
+void synaptic_op(const LayerSpec& l, const F* a, int H, int W, F* u, int Ho, int Wo) {
+  const int k = l.kernel, s = l.stride, p = l.padding;
+  const int ci_n = l.in_channels, co_n = l.out_channels;
+  if (l.kind == LayerKind::Conv) {
+    // u[co,oy,ox] = sum_{ci,ky,kx} W[co,ci,ky,kx] a[ci, s*oy-p+ky, s*ox-p+kx]
+    for (int co = 0; co < co_n; ++co)
+      for (int oy = 0; oy < Ho; ++oy)
+        for (int ox = 0; ox < Wo; ++ox) {
+          F acc = 0;
+          for (int ci = 0; ci < ci_n; ++ci)
+            for (int ky = 0; ky < k; ++ky) {
+              int y = s * oy - p + ky;
+              if (y < 0 || y >= H) continue;
+              for (int kx = 0; kx < k; ++kx) {
+                int x = s * ox - p + kx;
+                if (x < 0 || x >= W) continue;
+                F w = l.weight[((size_t(co) * ci_n + ci) * k + ky) * k + kx];
+                acc += w * a[(size_t(ci) * H + y) * W + x];
+              }
+            }
+          u[(size_t(co) * Ho + oy) * Wo + ox] = acc;
+        }
+  } else {
+    // u[co, s*y-p+ky, s*x-p+kx] += W[ci,co,ky,kx] a[ci,y,x]; output_padding only adds rows
+    // and columns at the end (reached by no tap when p = 0).
+    for (int ci = 0; ci < ci_n; ++ci)
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+          F av = a[(size_t(ci) * H + y) * W + x];
+          if (av == 0) continue;
+          for (int co = 0; co < co_n; ++co)
+            for (int ky = 0; ky < k; ++ky) {
+              int oy = s * y - p + ky;
+              if (oy < 0 || oy >= Ho) continue;
+              for (int kx = 0; kx < k; ++kx) {
+                int ox = s * x - p + kx;
+                if (ox < 0 || ox >= Wo) continue;
+                F w = l.weight[((size_t(ci) * co_n + co) * k + ky) * k + kx];
+                u[(size_t(co) * Ho + oy) * Wo + ox] += w * av;
+              }
+            }
+        }
+  }
+}
+
+template <typename F>
+DenseLayerOutput forward_impl(const LayerSpec& l, double ts, const DenseTensor& in,
+                              const std::vector<F>& eps, const std::vector<F>& nu) {
+  const int T = in.T, H = in.H, W = in.W;
+  const int Ho = l.output_size(H), Wo = l.output_size(W);
+  if (Ho <= 0 || Wo <= 0) fail("dense forward", "", "input too small for the layer");
+  const size_t in_frame = in.frame_size();
+  // 1. psp, per input neuron, i ascending (as the SLAYER kernel sums).
+  std::vector<F> a(size_t(T) * in_frame, F(0));
+  const int K = int(eps.size());
+  for (int t = 0; t < T; ++t)
+    for (size_t n = 0; n < in_frame; ++n) {
+      F acc = 0;
+      for (int i = 0; i < K && i <= t; ++i) acc += in.v[size_t(t - i) * in_frame + n] * eps[i];
+      a[size_t(t) * in_frame + n] = acc;
+    }
+  // 2. synaptic op, independently at every step.
+  DenseLayerOutput out{DenseTensor(T, l.out_channels, Ho, Wo),
+                       DenseTensor(T, l.out_channels, Ho, Wo)};
+  const size_t out_frame = out.spikes.frame_size();
+  std::vector<F> u(size_t(T) * out_frame, F(0));
+  for (int t = 0; t < T; ++t)
+    synaptic_op<F>(l, &a[size_t(t) * in_frame], H, W, &u[size_t(t) * out_frame], Ho, Wo);
+  // 3. spikes, sequential in time, refractory added in place to the future potential.
+  const F theta = F(l.neuron.theta);
+  const int R = int(nu.size());
+  for (size_t n = 0; n < out_frame; ++n)
+    for (int t = 0; t < T; ++t) {
+      F ut = u[size_t(t) * out_frame + n];
+      out.potential.v[size_t(t) * out_frame + n] = float(ut);
+      if (ut >= theta) {
+        out.spikes.v[size_t(t) * out_frame + n] = 1.f;
+        for (int j = 0; j < R && t + j < T; ++j) u[size_t(t + j) * out_frame + n] += nu[j];
+      }
+    }
+  return out;
+}
+
+}  // namespace
+
+DenseLayerOutput dense_layer_forward(const LayerSpec& l, double ts, const DenseTensor& in) {
+  if (in.C != l.in_channels)
+    fail("dense forward", "",
+         "input has " + std::to_string(in.C) + " channels, layer takes " +
+             std::to_string(l.in_channels));
+  if (!l.delay.empty()) fail("dense forward", "", "axonal delays are not supported");
+  if (l.neuron.discretisation == Discretisation::FIR)
+    return forward_impl<float>(l, ts, in, l.srm_kernel, l.ref_kernel);
+  // IIR: the untruncated continuous kernels over the whole window, in double.
+  std::vector<double> eps(size_t(in.T)), nu(size_t(in.T));
+  for (int i = 0; i < in.T; ++i) {
+    eps[i] = srm_kernel_value(l.neuron, ts, i);
+    nu[i] = refractory_kernel_value(l.neuron, ts, i);
+  }
+  return forward_impl<double>(l, ts, in, eps, nu);
+}
+
+std::vector<DenseLayerOutput> dense_forward(const ModelSpec& m, const DenseTensor& input) {
+  std::vector<DenseLayerOutput> outs;
+  outs.reserve(m.layers.size());  // x points into it
+  const DenseTensor* x = &input;
+  for (const auto& l : m.layers) {
+    outs.push_back(dense_layer_forward(l, m.time_step_ms, *x));
+    x = &outs.back().spikes;
+  }
+  return outs;
+}
+
+}  // namespace spikems

@@ -1,0 +1,37 @@
+// The plain dense forward of a ModelSpec: the reference every optimised path (event-driven
+// runtime, LibTorch, CUDA) is checked against. It follows the SLAYER/SpikeMS semantics of
+// /work/shared/reference/spikems-evimo/README.md literally, loop by loop, favouring obvious
+// correctness over speed:
+//   a = psp(eps, s_in)                 a[t] = sum_{i<=t} eps[i] s_in[t-i]   (eps[0] = 0)
+//   u = conv or conv_transpose(W, a)   per time step, no bias
+//   s[t] = (u[t] >= theta); a spike adds nu[j] to u[t+j] of the same neuron
+// Spikes are binary (SLAYER's 1/Ts amplitude times the Ts factor of its psp cancel).
+// FIR layers use the stored sampled kernels, cut where they end. IIR layers use the exact
+// continuous kernels without truncation (evaluated in double precision), which is what the
+// runtime's recursions compute.
+#pragma once
+
+#include <vector>
+
+#include "core/model/model_file.h"
+#include "core/runtime/dense_tensor.h"
+
+namespace spikems {
+
+struct DenseLayerOutput {
+  DenseTensor spikes;     // [T, C_out, H_out, W_out], 0/1
+  DenseTensor potential;  // u[t] compared with theta (after earlier spikes' refractory terms)
+};
+
+// One block (psp -> synaptic op -> spike) on input spikes [T, C_in, H, W].
+DenseLayerOutput dense_layer_forward(const LayerSpec& layer, double time_step_ms,
+                                     const DenseTensor& input);
+
+// Every block in order; result k is the output of layer k.
+std::vector<DenseLayerOutput> dense_forward(const ModelSpec& model, const DenseTensor& input);
+
+// The continuous kernels sampled at n steps, untruncated (IIR layers): eps(n Ts) and nu[n].
+double srm_kernel_value(const NeuronParams& n, double time_step_ms, int step);
+double refractory_kernel_value(const NeuronParams& n, double time_step_ms, int step);
+
+}  // namespace spikems

@@ -1,0 +1,54 @@
+// The event-driven network: a chain of StreamingLayer, advanced one time step at a time.
+// Per step, each layer first fires (its potential at t is already final), then takes the
+// spikes its predecessor emitted at t as drive (reaching its potential from t+1 on, since
+// eps[0] = 0). Layer k therefore answers an input spike k steps later at the earliest.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "core/model/model_file.h"
+#include "core/runtime/streaming_layer.h"
+
+namespace spikems {
+
+struct LayerStats {
+  uint64_t synops = 0;      // weight additions actually made (input spike x fan-out reached)
+  uint64_t in_spikes = 0;   // spikes that entered the layer
+  uint64_t out_spikes = 0;  // spikes the layer emitted
+  size_t neurons = 0;
+};
+
+class StreamingNetwork {
+ public:
+  // The input is [2, height, width] (channel = polarity). Throws Error when the model cannot
+  // run on that size or holds something the runtime does not support.
+  StreamingNetwork(const ModelSpec& model, int height, int width);
+
+  // Advances one step with the given input spikes, input neuron index (y*W + x)*2 + p, each at
+  // most once. Returns the output layer's spikes of this step, index (y*Wo + x)*Co + c.
+  const std::vector<uint32_t>& step(const std::vector<uint32_t>& input);
+
+  int64_t steps_done() const { return t_; }
+  int latency_steps() const { return int(layers_.size()); }  // minimum, one per layer
+  int in_height() const { return h_; }
+  int in_width() const { return w_; }
+  int out_channels() const { return layers_.back()->out_channels(); }
+  int out_height() const { return layers_.back()->out_height(); }
+  int out_width() const { return layers_.back()->out_width(); }
+  size_t layer_count() const { return layers_.size(); }
+  StreamingLayer& layer(size_t k) { return *layers_[k]; }
+  const std::vector<uint32_t>& layer_spikes(size_t k) const { return out_[k]; }  // this step
+  std::vector<LayerStats> stats() const;
+  uint64_t total_synops() const;
+
+ private:
+  int h_, w_;
+  int64_t t_ = 0;
+  std::vector<std::unique_ptr<StreamingLayer>> layers_;
+  std::vector<std::vector<uint32_t>> out_;
+  std::vector<uint64_t> in_spikes_;
+};
+
+}  // namespace spikems
