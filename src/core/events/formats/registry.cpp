@@ -9,10 +9,24 @@ namespace spikems {
 
 // Declarations of the per-format factories (defined in formats/<name>.cpp).
 // FORMAT-DECLARATIONS (keep one per line)
+FormatInfo evt2_format();
+FormatInfo evt3_format();
+FormatInfo dat_format();
+FormatInfo aedat2_format();
+FormatInfo aedat3_format();
+FormatInfo aedat4_format();
+FormatInfo es_format();
 
 std::vector<FormatInfo> make_format_list() {
   std::vector<FormatInfo> v;
   // FORMAT-LIST (keep one per line)
+  v.push_back(evt2_format());
+  v.push_back(evt3_format());
+  v.push_back(dat_format());
+  v.push_back(aedat2_format());
+  v.push_back(aedat3_format());
+  v.push_back(aedat4_format());
+  v.push_back(es_format());
   return v;
 }
 
