@@ -1,5 +1,6 @@
 #include "core/util/byte_source.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
@@ -103,7 +104,46 @@ class MemorySource final : public ByteSource {
   size_t n_;
 };
 
+// Reads stdin and keeps its first kKeep bytes so that head() can seek back over them.
+class StdinSource final : public ByteSource {
+ public:
+  StdinSource() { name_ = "<stdin>"; }
+  size_t read_some(void* dst, size_t n) override {
+    auto* d = static_cast<uint8_t*>(dst);
+    size_t got = 0;
+    if (offset_ < kept_.size()) {  // replay what head() already consumed
+      got = std::min<size_t>(n, kept_.size() - size_t(offset_));
+      std::memcpy(d, kept_.data() + offset_, got);
+      offset_ += got;
+      if (got == n) return got;
+    }
+    size_t r = std::fread(d + got, 1, n - got, stdin);
+    if (r == 0 && std::ferror(stdin)) fail_at_byte(name_, offset_, std::strerror(errno));
+    if (offset_ < kKeep) {
+      size_t keep = std::min<size_t>(r, kKeep - size_t(offset_));
+      kept_.insert(kept_.end(), d + got, d + got + keep);
+    }
+    offset_ += r;
+    return got + r;
+  }
+  uint64_t size() const override { return UINT64_MAX; }
+  void seek(uint64_t off) override {
+    if (off == offset_) return;
+    if (off > kept_.size() || offset_ > kept_.size())
+      fail_at_byte(name_, off, "cannot seek in standard input");
+    offset_ = off;
+  }
+
+ private:
+  static constexpr size_t kKeep = 64 * 1024;
+  std::vector<uint8_t> kept_;
+};
+
 }  // namespace
+
+std::unique_ptr<ByteSource> open_stdin_source() {
+  return std::make_unique<StdinSource>();
+}
 
 std::unique_ptr<ByteSource> open_file_source(const std::string& path) {
   return std::make_unique<FileSource>(path);

@@ -38,6 +38,10 @@ std::unique_ptr<ByteSource> open_file_source(const std::string& path);
 std::unique_ptr<ByteSource> open_memory_source(const uint8_t* data, size_t n,
                                                std::string name = "<memory>");
 
+// Standard input as a source named "<stdin>": size unknown (UINT64_MAX); seeking back is
+// possible only within the first 64 KiB (enough for head() and format detection).
+std::unique_ptr<ByteSource> open_stdin_source();
+
 // Whole-file helpers.
 std::vector<uint8_t> read_file_bytes(const std::string& path);
 

@@ -9,6 +9,10 @@ namespace spikems {
 
 // Declarations of the per-format factories (defined in formats/<name>.cpp).
 // FORMAT-DECLARATIONS (keep one per line)
+FormatInfo text_format();
+FormatInfo npz_events_format();
+FormatInfo evimo1_format();
+FormatInfo evimo1_txt_format();
 FormatInfo evt2_format();
 FormatInfo evt3_format();
 FormatInfo dat_format();
@@ -20,6 +24,10 @@ FormatInfo es_format();
 std::vector<FormatInfo> make_format_list() {
   std::vector<FormatInfo> v;
   // FORMAT-LIST (keep one per line)
+  v.push_back(text_format());
+  v.push_back(npz_events_format());
+  v.push_back(evimo1_format());
+  v.push_back(evimo1_txt_format());
   v.push_back(evt2_format());
   v.push_back(evt3_format());
   v.push_back(dat_format());

@@ -75,61 +75,82 @@ void apply_zip64_extra(const View& v, uint64_t extra_off, uint16_t extra_len, Zi
 
 }  // namespace
 
-std::vector<ZipEntry> zip_list(const uint8_t* data, size_t n, const std::string& source) {
-  View v{data, n, source};
-  if (n < 22)
+namespace {
+
+struct Directory {
+  uint64_t count = 0, offset = 0, size = 0;
+};
+
+// Finds the central directory from the archive's last bytes. `tail` holds the file's last
+// tail_n bytes; `file_n` is the whole file size.
+Directory find_directory(const uint8_t* tail, size_t tail_n, uint64_t file_n,
+                         const std::string& source) {
+  const uint64_t base = file_n - tail_n;  // file offset of tail[0]
+  if (file_n < 22)
     fail_at_byte(source, 0,
-                 "not a ZIP archive: file is " + std::to_string(n) + " bytes, too short");
-  if (load_le32(data) != kLocalSig && load_le32(data) != kEocdSig)
-    fail_at_byte(source, 0, "not a ZIP archive (npz): wrong magic bytes");
-  // The EOCD record sits at the end, followed by a comment of at most 65535 bytes.
+                 "not a ZIP archive: file is " + std::to_string(file_n) + " bytes, too short");
   uint64_t eocd = UINT64_MAX;
-  for (uint64_t p = n - 22;; --p) {
-    if (load_le32(data + p) == kEocdSig && p + 22 + load_le16(data + p + 20) == n) {
+  for (uint64_t p = tail_n - 22;; --p) {
+    if (load_le32(tail + p) == kEocdSig && p + 22 + load_le16(tail + p + 20) == tail_n) {
       eocd = p;
       break;
     }
-    if (p == 0 || n - p > 22 + 65535) break;
+    if (p == 0) break;
   }
   if (eocd == UINT64_MAX)
-    fail_at_byte(source, n, "ZIP end-of-central-directory record not found (file truncated?)");
-  uint64_t count = load_le16(data + eocd + 10);
-  uint64_t cd_size = load_le32(data + eocd + 12);
-  uint64_t cd_off = load_le32(data + eocd + 16);
-  if (count == 0xFFFF || cd_size == k32 || cd_off == k32) {
-    if (eocd < 20 || load_le32(data + eocd - 20) != kEocd64LocatorSig)
-      fail_at_byte(source, eocd, "ZIP64 archive without a ZIP64 end-of-central-directory locator");
-    uint64_t z64 = load_le64(data + eocd - 20 + 8);
-    v.need(z64, 56, "ZIP64 end-of-central-directory record");
-    if (load_le32(data + z64) != kEocd64Sig)
+    fail_at_byte(source, file_n, "ZIP end-of-central-directory record not found (file truncated?)");
+  Directory d;
+  d.count = load_le16(tail + eocd + 10);
+  d.size = load_le32(tail + eocd + 12);
+  d.offset = load_le32(tail + eocd + 16);
+  if (d.count == 0xFFFF || d.size == k32 || d.offset == k32) {
+    if (eocd < 20 || load_le32(tail + eocd - 20) != kEocd64LocatorSig)
+      fail_at_byte(source, base + eocd,
+                   "ZIP64 archive without a ZIP64 end-of-central-directory locator");
+    uint64_t z64 = load_le64(tail + eocd - 20 + 8);
+    if (z64 < base || z64 > base + tail_n - 56)
+      fail_at_byte(source, base + eocd, "ZIP64 end-of-central-directory record is out of place");
+    const uint8_t* r = tail + (z64 - base);
+    if (load_le32(r) != kEocd64Sig)
       fail_at_byte(source, z64, "bad ZIP64 end-of-central-directory signature");
-    count = load_le64(data + z64 + 32);
-    cd_size = load_le64(data + z64 + 40);
-    cd_off = load_le64(data + z64 + 48);
+    d.count = load_le64(r + 32);
+    d.size = load_le64(r + 40);
+    d.offset = load_le64(r + 48);
   }
-  v.need(cd_off, cd_size, "central directory");
-  if (count > cd_size / 46)
-    fail_at_byte(source, eocd,
-                 "ZIP claims " + std::to_string(count) +
+  if (d.offset > file_n || d.size > file_n - d.offset)
+    fail_at_byte(source, base + eocd,
+                 "ZIP central directory (" + std::to_string(d.size) + " bytes at " +
+                     std::to_string(d.offset) + ") runs past the end of the " +
+                     std::to_string(file_n) + "-byte file (truncated?)");
+  if (d.count > d.size / 46)
+    fail_at_byte(source, base + eocd,
+                 "ZIP claims " + std::to_string(d.count) +
                      " entries, more than its central directory can hold");
+  return d;
+}
+
+// Parses `count` entries from the central directory bytes cd (file offset cd_off).
+std::vector<ZipEntry> parse_directory(const uint8_t* cd, uint64_t cd_size, uint64_t cd_off,
+                                      uint64_t count, const std::string& source) {
+  View v{cd, size_t(cd_size), source};
   std::vector<ZipEntry> out;
   out.reserve(count);
-  uint64_t p = cd_off, cd_end = cd_off + cd_size;
+  uint64_t p = 0;
   for (uint64_t i = 0; i < count; ++i) {
-    if (p + 46 > cd_end || load_le32(data + p) != kCentralSig)
-      fail_at_byte(source, p, "bad ZIP central directory entry " + std::to_string(i));
+    if (p + 46 > cd_size || load_le32(cd + p) != kCentralSig)
+      fail_at_byte(source, cd_off + p, "bad ZIP central directory entry " + std::to_string(i));
     ZipEntry e;
-    e.flags = load_le16(data + p + 8);
-    e.method = load_le16(data + p + 10);
-    e.crc32 = load_le32(data + p + 16);
-    e.compressed_size = load_le32(data + p + 20);
-    e.uncompressed_size = load_le32(data + p + 24);
-    uint16_t name_len = load_le16(data + p + 28), extra_len = load_le16(data + p + 30),
-             comment_len = load_le16(data + p + 32);
-    e.local_header_offset = load_le32(data + p + 42);
-    if (p + 46 + name_len + extra_len + comment_len > cd_end)
-      fail_at_byte(source, p, "ZIP central directory entry runs past the directory");
-    e.name.assign(reinterpret_cast<const char*>(data + p + 46), name_len);
+    e.flags = load_le16(cd + p + 8);
+    e.method = load_le16(cd + p + 10);
+    e.crc32 = load_le32(cd + p + 16);
+    e.compressed_size = load_le32(cd + p + 20);
+    e.uncompressed_size = load_le32(cd + p + 24);
+    uint16_t name_len = load_le16(cd + p + 28), extra_len = load_le16(cd + p + 30),
+             comment_len = load_le16(cd + p + 32);
+    e.local_header_offset = load_le32(cd + p + 42);
+    if (p + 46 + name_len + extra_len + comment_len > cd_size)
+      fail_at_byte(source, cd_off + p, "ZIP central directory entry runs past the directory");
+    e.name.assign(reinterpret_cast<const char*>(cd + p + 46), name_len);
     bool u32 = e.uncompressed_size == k32, c32 = e.compressed_size == k32,
          o32 = e.local_header_offset == k32;
     apply_zip64_extra(v, p + 46 + name_len, extra_len, e, u32, c32, o32);
@@ -137,6 +158,40 @@ std::vector<ZipEntry> zip_list(const uint8_t* data, size_t n, const std::string&
     p += 46 + name_len + extra_len + comment_len;
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<ZipEntry> zip_list(const uint8_t* data, size_t n, const std::string& source) {
+  if (n < 22)
+    fail_at_byte(source, 0,
+                 "not a ZIP archive: file is " + std::to_string(n) + " bytes, too short");
+  if (load_le32(data) != kLocalSig && load_le32(data) != kEocdSig)
+    fail_at_byte(source, 0, "not a ZIP archive (npz): wrong magic bytes");
+  size_t tail_n = std::min<size_t>(n, 22 + 65535 + 20 + 56);
+  Directory d = find_directory(data + n - tail_n, tail_n, n, source);
+  return parse_directory(data + d.offset, d.size, d.offset, d.count, source);
+}
+
+std::vector<ZipEntry> zip_list_file(const std::string& path) {
+  auto src = open_file_source(path);
+  const uint64_t n = src->size();
+  if (n == UINT64_MAX) fail(path, "", "cannot determine file size");
+  if (n < 22)
+    fail_at_byte(path, 0, "not a ZIP archive: file is " + std::to_string(n) + " bytes, too short");
+  uint8_t magic[4];
+  src->read_exact(magic, 4, "ZIP signature");
+  if (load_le32(magic) != kLocalSig && load_le32(magic) != kEocdSig)
+    fail_at_byte(path, 0, "not a ZIP archive (npz): wrong magic bytes");
+  size_t tail_n = size_t(std::min<uint64_t>(n, 22 + 65535 + 20 + 56));
+  std::vector<uint8_t> tail(tail_n);
+  src->seek(n - tail_n);
+  src->read_exact(tail.data(), tail_n, "ZIP end records");
+  Directory d = find_directory(tail.data(), tail_n, n, path);
+  std::vector<uint8_t> cd(d.size);
+  src->seek(d.offset);
+  src->read_exact(cd.data(), cd.size(), "ZIP central directory");
+  return parse_directory(cd.data(), d.size, d.offset, d.count, path);
 }
 
 std::vector<uint8_t> zip_extract(const uint8_t* data, size_t n, const ZipEntry& e,

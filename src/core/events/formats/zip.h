@@ -29,6 +29,8 @@ struct ZipEntry {
 
 // Lists the members of an in-memory archive from its central directory.
 std::vector<ZipEntry> zip_list(const uint8_t* data, size_t n, const std::string& source);
+// The same from a file, reading only its end records and central directory (cheap detection).
+std::vector<ZipEntry> zip_list_file(const std::string& path);
 // Decompresses one member and checks its size and CRC-32.
 std::vector<uint8_t> zip_extract(const uint8_t* data, size_t n, const ZipEntry& e,
                                  const std::string& source);

@@ -1,0 +1,381 @@
+#include "core/events/formats/text.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <deque>
+
+#include "core/util/atomic_file.h"
+#include "core/util/error.h"
+
+namespace spikems {
+
+namespace {
+
+constexpr size_t kMaxLine = 4096;
+constexpr size_t kUnitLookahead = 1000;
+
+// Buffered line splitter over a ByteSource (one virtual call per block, not per byte).
+class LineInput {
+ public:
+  explicit LineInput(std::unique_ptr<ByteSource> src) : src_(std::move(src)), buf_(1 << 20) {}
+  const std::string& name() const { return src_->name(); }
+  uint64_t line_no() const { return line_no_; }
+  // Next line without its terminator ('\r' stripped); false at the end.
+  bool next(std::string_view& line) {
+    for (;;) {
+      const char* b = buf_.data() + pos_;
+      const char* nl = static_cast<const char*>(std::memchr(b, '\n', end_ - pos_));
+      if (nl) {
+        size_t len = size_t(nl - b);
+        pos_ += len + 1;
+        return emit(b, len, line);
+      }
+      if (eof_) {
+        if (pos_ == end_) return false;
+        size_t len = end_ - pos_;
+        pos_ = end_;
+        return emit(b, len, line);
+      }
+      if (end_ - pos_ > kMaxLine)
+        fail_at_line(name(), line_no_ + 1,
+                     "line longer than " + std::to_string(kMaxLine) +
+                         " bytes: this is not a text event file (binary data?)");
+      std::memmove(buf_.data(), b, end_ - pos_);
+      end_ -= pos_;
+      pos_ = 0;
+      size_t r = src_->read_some(buf_.data() + end_, buf_.size() - end_);
+      if (r == 0) eof_ = true;
+      end_ += r;
+    }
+  }
+
+ private:
+  bool emit(const char* b, size_t len, std::string_view& line) {
+    if (len > kMaxLine)
+      fail_at_line(name(), line_no_ + 1, "line longer than " + std::to_string(kMaxLine) + " bytes");
+    if (len && b[len - 1] == '\r') --len;
+    ++line_no_;
+    line = std::string_view(b, len);
+    return true;
+  }
+  std::unique_ptr<ByteSource> src_;
+  std::vector<char> buf_;
+  size_t pos_ = 0, end_ = 0;
+  bool eof_ = false;
+  uint64_t line_no_ = 0;
+};
+
+bool is_sep(char c) {
+  return c == ' ' || c == '\t' || c == ',';
+}
+
+// Splits a data line into at most 6 fields; returns the count.
+int split(std::string_view s, std::string_view* f) {
+  int n = 0;
+  size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && is_sep(s[i])) ++i;
+    if (i >= s.size()) break;
+    size_t j = i;
+    while (j < s.size() && !is_sep(s[j])) ++j;
+    if (n == 6) return 7;
+    f[n++] = s.substr(i, j - i);
+    i = j;
+  }
+  return n;
+}
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
+  return s;
+}
+
+bool looks_fractional(std::string_view t) {
+  return t.find_first_of(".eE") != std::string_view::npos;
+}
+
+class TextReader final : public EventReader {
+ public:
+  TextReader(std::unique_ptr<ByteSource> src, const ReadOptions& opt) : in_(std::move(src)) {
+    if (opt.time_unit != "auto" && opt.time_unit != "s" && opt.time_unit != "us")
+      fail(in_.name(), "", "time unit '" + opt.time_unit + "' is not auto, s or us");
+    if (opt.sensor.known()) sensor_ = opt.sensor;
+    // Read comments and up to kUnitLookahead data lines to settle the header and time unit.
+    std::string_view line;
+    std::string unit_comment;
+    while (pending_.size() < kUnitLookahead && in_.next(line)) {
+      std::string_view s = trim(line);
+      if (s.empty()) continue;
+      if (s.front() == '#') {
+        if (pending_.empty()) header_comment(s, unit_comment, opt.sensor.known());
+        continue;
+      }
+      pending_.push_back({in_.line_no(), std::string(s)});
+    }
+    if (opt.time_unit != "auto") {
+      seconds_ = opt.time_unit == "s";
+    } else if (!unit_comment.empty()) {
+      seconds_ = unit_comment == "s";
+    } else {
+      std::string_view f[7];
+      for (const auto& p : pending_)
+        if (split(p.second, f) >= 1 && looks_fractional(f[0])) seconds_ = true;
+    }
+  }
+  std::string format_name() const override { return "text"; }
+  SensorSize sensor() const override {
+    if (sensor_.known()) return sensor_;
+    if (any_) return {max_x_ + 1, max_y_ + 1};
+    return {};
+  }
+  size_t read(EventStream& out, size_t max_events) override {
+    if (sensor_.known()) out.sensor = sensor_;
+    size_t n = 0;
+    std::string_view line;
+    while (n < max_events) {
+      uint64_t no;
+      if (!pending_.empty()) {
+        held_ = std::move(pending_.front().second);
+        no = pending_.front().first;
+        pending_.pop_front();
+        line = held_;
+      } else {
+        if (!in_.next(line)) break;
+        no = in_.line_no();
+        line = trim(line);
+        if (line.empty() || line.front() == '#') continue;
+      }
+      parse_line(line, no, out);
+      ++n;
+    }
+    return n;
+  }
+
+ private:
+  void header_comment(std::string_view s, std::string& unit, bool sensor_forced) {
+    s.remove_prefix(1);
+    s = trim(s);
+    std::string_view f[7];
+    int k = split(s, f);
+    if (k == 3 && f[0] == "sensor") {
+      int w = 0, h = 0;
+      auto r1 = std::from_chars(f[1].data(), f[1].data() + f[1].size(), w);
+      auto r2 = std::from_chars(f[2].data(), f[2].data() + f[2].size(), h);
+      if (r1.ec != std::errc() || r2.ec != std::errc() || w <= 0 || h <= 0 || w > 65536 ||
+          h > 65536)
+        fail_at_line(in_.name(), in_.line_no(), "bad '# sensor W H' comment");
+      if (!sensor_forced) sensor_ = {w, h};
+    } else if (k == 2 && f[0] == "time_unit") {
+      if (f[1] != "s" && f[1] != "us")
+        fail_at_line(in_.name(), in_.line_no(), "'# time_unit' must be s or us");
+      unit = std::string(f[1]);
+    }
+  }
+
+  [[noreturn]] void bad(uint64_t no, const std::string& why, std::string_view line) {
+    fail_at_line(in_.name(), no, why + " in \"" + std::string(line.substr(0, 120)) + "\"");
+  }
+
+  void parse_line(std::string_view line, uint64_t no, EventStream& out) {
+    std::string_view f[7];
+    int k = split(line, f);
+    if (k != 4 && k != 5)
+      bad(no, "expected 4 or 5 fields (t x y p [label]), found " + std::to_string(k), line);
+    if (columns_ == 0) columns_ = k;
+    if (k != columns_)
+      bad(no,
+          "this line has " + std::to_string(k) + " fields, earlier lines " +
+              std::to_string(columns_),
+          line);
+    int64_t t;
+    if (seconds_) {
+      double s;
+      auto r = std::from_chars(f[0].data(), f[0].data() + f[0].size(), s);
+      if (r.ec != std::errc() || r.ptr != f[0].data() + f[0].size())
+        bad(no, "timestamp is not a number", line);
+      if (!std::isfinite(s) || std::fabs(s) > 9e12)
+        bad(no, "timestamp is not finite or out of range", line);
+      t = std::llround(s * 1e6);
+    } else {
+      auto r = std::from_chars(f[0].data(), f[0].data() + f[0].size(), t);
+      if (r.ec != std::errc() || r.ptr != f[0].data() + f[0].size())
+        bad(no,
+            looks_fractional(f[0]) ? "fractional timestamp in a file read as microseconds "
+                                     "(pass --time-unit s)"
+                                   : "timestamp is not an integer number of microseconds",
+            line);
+    }
+    auto coord = [&](std::string_view v, const char* what) {
+      int c = -1;
+      auto r = std::from_chars(v.data(), v.data() + v.size(), c);
+      if (r.ec != std::errc() || r.ptr != v.data() + v.size() || c < 0 || c > 65535)
+        bad(no, std::string(what) + " is not a pixel coordinate (0..65535)", line);
+      return uint16_t(c);
+    };
+    uint16_t x = coord(f[1], "x"), y = coord(f[2], "y");
+    std::string_view pv = f[3];
+    if (!pv.empty() && pv.front() == '+') pv.remove_prefix(1);
+    uint8_t p;
+    if (pv == "1" || pv == "1.0")
+      p = 1;
+    else if (pv == "0" || pv == "-1" || pv == "0.0" || pv == "-1.0")
+      p = 0;
+    else
+      bad(no, "polarity must be 0/1 or -1/+1", line);
+    if (k == 5) {
+      uint16_t l = coord(f[4], "label");
+      out.push_back(t, x, y, p, l);
+    } else {
+      out.push_back(t, x, y, p);
+    }
+    any_ = true;
+    max_x_ = std::max<int>(max_x_, x);
+    max_y_ = std::max<int>(max_y_, y);
+  }
+
+  LineInput in_;
+  std::deque<std::pair<uint64_t, std::string>> pending_;
+  std::string held_;
+  SensorSize sensor_;
+  bool seconds_ = false;
+  int columns_ = 0;
+  bool any_ = false;
+  int max_x_ = 0, max_y_ = 0;
+};
+
+class TextWriter final : public EventWriter {
+ public:
+  TextWriter(const std::string& path, SensorSize sensor, const WriteOptions& opt)
+      : sensor_(sensor) {
+    if (opt.time_unit != "us" && opt.time_unit != "s")
+      fail(path, "", "time unit '" + opt.time_unit + "' is not s or us");
+    seconds_ = opt.time_unit == "s";
+    if (path == "-")
+      out_ = stdout;
+    else
+      file_ = std::make_unique<AtomicFile>(path);
+    buf_.reserve(1 << 20);
+  }
+  void write(const EventStream& ev) override {
+    if (!header_done_) header(ev);
+    char tmp[32];
+    for (size_t i = 0; i < ev.size(); ++i) {
+      if (seconds_) {  // exact: integer seconds, then six digits of microseconds
+        int64_t t = ev.t[i];
+        if (t < 0) buf_ += '-', t = -t;
+        put(t / 1000000);
+        buf_ += '.';
+        auto r = std::to_chars(tmp, tmp + 32, t % 1000000);
+        buf_.append(6 - size_t(r.ptr - tmp), '0');
+        buf_.append(tmp, r.ptr);
+      } else {
+        put(ev.t[i]);
+      }
+      buf_ += ' ';
+      put(ev.x[i]);
+      buf_ += ' ';
+      put(ev.y[i]);
+      buf_ += ' ';
+      buf_ += char('0' + ev.p[i]);
+      if (labels_) {
+        buf_ += ' ';
+        put(ev.has_labels() ? ev.label[i] : 0);
+      }
+      buf_ += '\n';
+      if (buf_.size() > (1 << 20) - 128) flush();
+    }
+  }
+  void close() override {
+    if (!header_done_) header(EventStream{});
+    flush();
+    if (file_)
+      file_->commit();
+    else
+      std::fflush(out_);
+  }
+
+ private:
+  template <typename T>
+  void put(T v) {
+    char tmp[24];
+    auto r = std::to_chars(tmp, tmp + 24, v);
+    buf_.append(tmp, r.ptr);
+  }
+  void header(const EventStream& first) {
+    header_done_ = true;
+    labels_ = first.has_labels();
+    if (!sensor_.known()) sensor_ = first.sensor;
+    buf_ += labels_ ? "# spikems events: t x y p label\n" : "# spikems events: t x y p\n";
+    if (sensor_.known())
+      buf_ +=
+          "# sensor " + std::to_string(sensor_.width) + " " + std::to_string(sensor_.height) + "\n";
+    buf_ += seconds_ ? "# time_unit s\n" : "# time_unit us\n";
+  }
+  void flush() {
+    if (file_)
+      file_->write(buf_);
+    else if (std::fwrite(buf_.data(), 1, buf_.size(), out_) != buf_.size())
+      throw Error("<stdout>: write failed");
+    buf_.clear();
+  }
+  SensorSize sensor_;
+  bool seconds_ = false, header_done_ = false, labels_ = false;
+  std::unique_ptr<AtomicFile> file_;
+  std::FILE* out_ = nullptr;
+  std::string buf_;
+};
+
+}  // namespace
+
+std::unique_ptr<EventReader> open_text_reader(std::unique_ptr<ByteSource> src,
+                                              const ReadOptions& opt) {
+  return std::make_unique<TextReader>(std::move(src), opt);
+}
+
+FormatInfo text_format() {
+  FormatInfo f;
+  f.name = "text";
+  f.description = "Text lines 't x y p [label]' (t in s or us; '# sensor W H' header; '-' = stdin)";
+  f.extensions = {".txt", ".csv"};
+  f.detect = [](const std::vector<uint8_t>& head, const std::string& path) {
+    if (path == "-") return 30;
+    // Printable text whose first data line holds 4 or 5 numbers.
+    size_t i = 0;
+    for (uint8_t c : head)
+      if (c < 9 || (c > 13 && c < 32) || c > 126) return 0;
+    std::string s(head.begin(), head.end());
+    while (i < s.size()) {
+      size_t e = s.find('\n', i);
+      if (e == std::string::npos) e = s.size();
+      std::string_view l = trim(std::string_view(s).substr(i, e - i));
+      if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
+      i = e + 1;
+      if (l.empty() || l.front() == '#') continue;
+      std::string_view fl[7];
+      int k = split(l, fl);
+      if (k != 4 && k != 5) return 0;
+      for (int j = 0; j < k; ++j) {
+        double v;
+        auto r =
+            std::from_chars(fl[j].data() + (fl[j].front() == '+'), fl[j].data() + fl[j].size(), v);
+        if (r.ec != std::errc()) return 0;
+      }
+      return 40;
+    }
+    return 0;
+  };
+  f.open_bytes = open_text_reader;
+  f.open_path = [](const std::string& path, const ReadOptions& opt) {
+    return open_text_reader(path == "-" ? open_stdin_source() : open_file_source(path), opt);
+  };
+  f.open_writer = [](const std::string& path, SensorSize s,
+                     const WriteOptions& opt) -> std::unique_ptr<EventWriter> {
+    return std::make_unique<TextWriter>(path, s, opt);
+  };
+  return f;
+}
+
+}  // namespace spikems
