@@ -1,0 +1,84 @@
+// Every parameter of the simulator, read from TOML (configs/sim/*.toml; the presets are the
+// same files compiled in). Ranges are sampled per sequence from the sequence's own seed.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace spikems::sim {
+
+struct Range {
+  double lo = 0, hi = 0;
+};
+
+struct SimConfig {
+  std::string name = "custom";
+  // [sensor] pinhole intrinsics; fx <= 0 derives them from the DAVIS346 defaults scaled to
+  // the sensor width (fx = fy = 0.65 * width, principal point at the centre).
+  int width = 346, height = 260;
+  double fx = 0, fy = 0, cx = -1, cy = -1;
+
+  // [time]
+  int64_t duration_us = 2'000'000;
+  int64_t dt_min_us = 100;  // adaptive step bounds
+  int64_t dt_max_us = 1000;
+  double max_dlog_fraction = 1.0 / 3;  // target max |dL| per step on one surface, x C
+  double max_displacement_px = 0.5;    // target max image motion per step (occlusion edges)
+  int64_t mask_period_us = 1000;       // mask frames and poses
+
+  // [events] (v2e-like non-idealities; `noise = "clean"` zeroes them)
+  std::string noise = "noisy";
+  double threshold = 0.2;         // C (log units), ON and OFF
+  double threshold_sigma = 0.03;  // per-pixel mismatch (std, log units)
+  int64_t refractory_us = 500;
+  double leak_hz = 0.01;          // per-pixel leak event rate
+  double shot_hz = 0.001;         // per-pixel shot-noise rate (each polarity half)
+  double hot_pixel_fraction = 0;  // share of pixels that fire ON events at hot_pixel_hz
+  double hot_pixel_hz = 50;
+  double log_eps = 0.01;  // L = log(eps + I), I in [0, 1]
+
+  // [scene]
+  std::string background = "room";  // "room" (textured box) or "planes" (planes at depths)
+  Range room_width{4, 8}, room_height{2.5, 4}, room_depth{5, 10};
+  int planes = 3;
+  Range plane_depth{1.5, 8};
+  std::vector<std::string> textures{"noise", "stripes", "checkers", "grid", "blobs", "natural"};
+  Range texture_frequency{2, 10};
+  Range log_contrast{0.8, 2.5};
+  Range texture_tile_m{0.5, 2.0};  // size of one texture tile in metres
+  Range illumination{0.4, 1.0};
+  Range ambient{0.3, 0.7};
+
+  // [objects]
+  int objects_min = 1, objects_max = 3;
+  std::vector<std::string> shapes{"sphere", "ellipsoid", "box", "disc", "rect", "star"};
+  Range object_size{0.1, 0.35};  // radius / half-extent (m)
+  Range object_depth{1.0, 3.5};  // distance in front of the camera at mid-sequence (m)
+  Range object_speed{0.3, 2.0};  // m/s
+  Range object_spin{0.0, 3.0};   // rad/s
+
+  // [occluder]
+  bool net = false;
+  Range net_depth{0.4, 0.8};
+  Range net_spacing{0.04, 0.08};  // m between bars
+  Range net_bar{0.004, 0.01};     // bar width (m)
+
+  // [camera]
+  Range camera_speed{0.0, 0.6};          // m/s (peak of the sinusoid sum, per axis scale)
+  Range camera_angular_speed{0.0, 1.0};  // rad/s
+  Range camera_frequency_hz{0.2, 1.5};
+
+  // [output]
+  double val_fraction = 0.1, test_fraction = 0.1;
+};
+
+// Parses TOML text; every key is optional (defaults above); unknown keys are errors.
+SimConfig parse_sim_config(const std::string& toml_text, const std::string& source);
+SimConfig load_sim_config(const std::string& path);
+// "clean" zeroes mismatch, refractory, leak, shot noise and hot pixels; "noisy" keeps them.
+void apply_noise_setting(SimConfig& c, const std::string& setting);
+// Throws spikems::Error naming `source` for out-of-range values.
+void validate_sim_config(const SimConfig& c, const std::string& source);
+
+}  // namespace spikems::sim
