@@ -18,15 +18,30 @@ void put(Image& img, int x, int y, Rgb c) {
   img.set(x, y, c.r, c.g, c.b);
 }
 
-void draw_outline(Image& img, const MaskFrame& m) {
-  if (m.width != img.width || m.height != img.height)
+// Draws the region borders of `m` on an image enlarged `scale` times: for each region pixel,
+// a 1-pixel line along every side that faces a pixel outside the region. At scale 1 this is
+// the contour pixel itself; at larger scales the inside of the block keeps its event colour.
+void draw_outline(Image& img, const MaskFrame& m, int scale) {
+  if (m.width * scale != img.width || m.height * scale != img.height)
     fail("render", "",
          "mask is " + std::to_string(m.width) + "x" + std::to_string(m.height) +
-             " but the frame is " + std::to_string(img.width) + "x" + std::to_string(img.height));
-  auto c = mask_contour(m.ids, m.width, m.height);
-  for (int y = 0; y < m.height; ++y)
-    for (int x = 0; x < m.width; ++x)
-      if (c[size_t(y) * size_t(m.width) + size_t(x)]) put(img, x, y, kOutlineColor);
+             " but the frame is " + std::to_string(img.width / scale) + "x" +
+             std::to_string(img.height / scale));
+  const int W = m.width, H = m.height, s = scale;
+  auto in = [&](int x, int y) { return m.ids[size_t(y) * size_t(W) + size_t(x)] != 0; };
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (!in(x, y)) continue;
+      int bx = x * s, by = y * s;
+      if (x > 0 && !in(x - 1, y))
+        for (int k = 0; k < s; ++k) put(img, bx, by + k, kOutlineColor);
+      if (x + 1 < W && !in(x + 1, y))
+        for (int k = 0; k < s; ++k) put(img, bx + s - 1, by + k, kOutlineColor);
+      if (y > 0 && !in(x, y - 1))
+        for (int k = 0; k < s; ++k) put(img, bx + k, by, kOutlineColor);
+      if (y + 1 < H && !in(x, y + 1))
+        for (int k = 0; k < s; ++k) put(img, bx + k, by + s - 1, kOutlineColor);
+    }
 }
 
 }  // namespace
@@ -68,8 +83,9 @@ Image render_events(const EventStream& ev, int64_t t0, int64_t t1, SensorSize se
       else
         put(img, x, y, seen[k] == 1 ? kOnColor : seen[k] == 2 ? kOffColor : kBothColor);
     }
-  if (mask && opt.outline_mask) draw_outline(img, *mask);
-  return upscale(img, opt.scale);
+  img = upscale(img, opt.scale);
+  if (mask && opt.outline_mask) draw_outline(img, *mask, opt.scale);
+  return img;
 }
 
 Image render_mask(const std::vector<uint8_t>& mask, int w, int h, const MaskFrame* truth,
@@ -79,8 +95,9 @@ Image render_mask(const std::vector<uint8_t>& mask, int w, int h, const MaskFram
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
       if (mask[size_t(y) * size_t(w) + size_t(x)]) put(img, x, y, kMaskColor);
-  if (truth && opt.outline_mask) draw_outline(img, *truth);
-  return upscale(img, opt.scale);
+  img = upscale(img, opt.scale);
+  if (truth && opt.outline_mask) draw_outline(img, *truth, opt.scale);
+  return img;
 }
 
 Image render_comparison(const std::vector<uint8_t>& predicted, const std::vector<uint8_t>& truth,

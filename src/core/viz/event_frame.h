@@ -33,7 +33,9 @@ struct RenderOptions {
 };
 
 // Events with t in [t0, t1) (time-sorted stream). `mask` (optional) is outlined: every non-zero
-// id counts as a region (filter it to the moving ids first, see filter_mask_ids).
+// id counts as a region (filter it to the moving ids first, see filter_mask_ids). The outline is
+// drawn over the events; at scale >= 2 it is a 1-pixel line along the block sides that face
+// outside the region, so the events inside stay visible.
 Image render_events(const EventStream& ev, int64_t t0, int64_t t1, SensorSize sensor,
                     const MaskFrame* mask = nullptr, const RenderOptions& = {});
 

@@ -94,16 +94,35 @@ TEST(EventFrame, MaskOutlineAndScale) {
     for (int x = 1; x <= 3; ++x) m.ids[size_t(y * 5 + x)] = 2;  // 3x3 square
   RenderOptions opt;
   opt.scale = 2;
-  Image img = render_events(ev, 0, 1, ev.sensor, &m, opt);
-  ASSERT_EQ(img.width, 10);
+  Image one = render_events(ev, 0, 1, ev.sensor, &m, RenderOptions{});
   for (int y = 0; y < 5; ++y)
     for (int x = 0; x < 5; ++x) {
       bool contour = x >= 1 && x <= 3 && y >= 1 && y <= 3 && !(x == 2 && y == 2);
       Rgb want = contour ? kOutlineColor : (x == 2 && y == 2) ? kOnColor : kBackground;
-      for (int dy = 0; dy < 2; ++dy)
-        for (int dx = 0; dx < 2; ++dx)
-          EXPECT_TRUE(is(img, 2 * x + dx, 2 * y + dy, want)) << x << "," << y;
+      EXPECT_TRUE(is(one, x, y, want)) << x << "," << y;
     }
+  Image img = render_events(ev, 0, 1, ev.sensor, &m, opt);
+  ASSERT_EQ(img.width, 10);
+  ASSERT_EQ(img.height, 10);
+  // Corner pixel (1,1): its block (2..3, 2..3) has the left and top sides drawn.
+  EXPECT_TRUE(is(img, 2, 2, kOutlineColor));
+  EXPECT_TRUE(is(img, 3, 2, kOutlineColor));
+  EXPECT_TRUE(is(img, 2, 3, kOutlineColor));
+  EXPECT_TRUE(is(img, 3, 3, kBackground));
+  // Edge pixel (2,1): only its top side.
+  EXPECT_TRUE(is(img, 4, 2, kOutlineColor));
+  EXPECT_TRUE(is(img, 5, 2, kOutlineColor));
+  EXPECT_TRUE(is(img, 4, 3, kBackground));
+  // Centre (2,2): the ON event fills the whole block.
+  for (int dy = 0; dy < 2; ++dy)
+    for (int dx = 0; dx < 2; ++dx) EXPECT_TRUE(is(img, 4 + dx, 4 + dy, kOnColor));
+  // Bottom-right corner (3,3): right and bottom sides -> (7,6), (6,7), (7,7); (6,6) stays white.
+  EXPECT_TRUE(is(img, 7, 6, kOutlineColor));
+  EXPECT_TRUE(is(img, 6, 7, kOutlineColor));
+  EXPECT_TRUE(is(img, 6, 6, kBackground));
+  // Outside the region: white.
+  EXPECT_TRUE(is(img, 0, 0, kBackground));
+  EXPECT_TRUE(is(img, 9, 9, kBackground));
   // A region touching the border: border pixels are contour only where an inside neighbour is
   // background.
   std::vector<uint16_t> full(9, 1);

@@ -1,0 +1,168 @@
+// `spikems convert IN OUT`: any readable format to any writable one, chunk by chunk.
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+
+#include "cli/command.h"
+#include "core/events/io.h"
+#include "core/util/duration.h"
+#include "core/util/error.h"
+#include "core/util/interrupt.h"
+#include "core/util/progress.h"
+
+namespace {
+
+using spikems::EventStream;
+
+struct ConvertArgs {
+  std::string in, out, out_format, compression, from, to, out_time_unit = "us";
+  std::string in_format, time_unit = "auto";
+  int level = -1, width = 0, height = 0;
+  bool sort = false, absolute = false, quiet = false;
+};
+
+// Keeps events of `c` with t in [lo, hi).
+void keep_range(EventStream& c, int64_t lo, int64_t hi) {
+  if (c.empty() || (c.t.front() >= lo && c.t.back() < hi)) return;
+  auto [b, e] = c.time_range(lo, hi);
+  c = c.slice_index(b, e);
+}
+
+void run(const ConvertArgs& a) {
+  spikems::install_interrupt_flag();
+  spikems::ReadOptions ro;
+  ro.sort = a.sort;
+  ro.time_unit = a.time_unit;
+  ro.format = a.in_format;
+  if (a.width > 0 && a.height > 0) ro.sensor = {a.width, a.height};
+  spikems::WriteOptions wo;
+  wo.compression = a.compression == "none" ? "none" : a.compression;
+  wo.level = a.level;
+  wo.time_unit = a.out_time_unit;
+  // Check the output format before reading anything.
+  spikems::format_for_output(a.out, a.out_format);
+  bool has_from = !a.from.empty(), has_to = !a.to.empty();
+  int64_t from = has_from ? spikems::parse_duration_us(a.from) : 0;
+  int64_t to = has_to ? spikems::parse_duration_us(a.to) : 0;
+  if (has_from && has_to && to <= from)
+    spikems::fail(a.out, "", "--to (" + a.to + ") must be after --from (" + a.from + ")");
+
+  auto reader = spikems::open_reader(a.in, ro);
+  spikems::ProgressBar bar("convert", 0, "ev", !a.quiet && isatty(fileno(stderr)));
+  EventStream chunk;
+  size_t n = reader->read(chunk, spikems::kReadChunk);
+  // Whole-file mode: sorting needs every event, and a headerless input (text) only knows its
+  // sensor size at the end.
+  spikems::SensorSize sensor = reader->sensor();
+  if (!sensor.known()) sensor = chunk.sensor;
+  bool whole = a.sort || !sensor.known();
+  if (whole) {
+    while (n > 0) {
+      if (spikems::interrupted()) spikems::fail(a.in, "", "interrupted; no output written");
+      bar.update(chunk.size());
+      n = reader->read(chunk, spikems::kReadChunk);
+    }
+    if (a.sort) chunk.sort_by_time();
+    sensor = reader->sensor();
+    if (!sensor.known()) sensor = chunk.sensor;
+    if (!sensor.known()) {  // from the largest coordinates seen
+      int mx = 0, my = 0;
+      for (size_t i = 0; i < chunk.size(); ++i) {
+        mx = std::max<int>(mx, chunk.x[i] + 1);
+        my = std::max<int>(my, chunk.y[i] + 1);
+      }
+      sensor = {mx, my};
+      std::fprintf(stderr,
+                   "spikems: note: %s does not state its sensor size; using %dx%d from the "
+                   "largest coordinates (pass --width/--height to set it)\n",
+                   a.in.c_str(), mx, my);
+    }
+    chunk.sensor = sensor;
+  }
+  // Times on the command line are relative to the first event unless --absolute.
+  int64_t base = a.absolute || chunk.empty() ? 0 : chunk.t.front();
+  int64_t lo = has_from ? base + from : INT64_MIN, hi = has_to ? base + to : INT64_MAX;
+
+  auto writer = spikems::open_writer(a.out, sensor, wo, a.out_format);
+  uint64_t read_total = 0, written = 0;
+  auto emit = [&](EventStream& c) {
+    read_total += c.size();
+    keep_range(c, lo, hi);
+    c.sensor = sensor;
+    if (!c.empty()) writer->write(c);
+    written += c.size();
+    bar.update(read_total);
+  };
+  if (whole) {
+    emit(chunk);
+  } else {
+    while (n > 0) {
+      if (spikems::interrupted()) spikems::fail(a.in, "", "interrupted; no output written");
+      bool past_end = !chunk.empty() && chunk.t.front() >= hi;
+      if (past_end) break;  // time-ordered input: nothing later can fall in the range
+      emit(chunk);
+      chunk.clear();
+      n = reader->read(chunk, spikems::kReadChunk);
+    }
+  }
+  bar.finish();
+  spikems::Recording extras;
+  reader->read_extras(extras);
+  // Keep the mask frames and poses of the selected time range.
+  auto in_range = [&](int64_t t) { return t >= lo && t < hi; };
+  std::erase_if(extras.masks, [&](const spikems::MaskFrame& m) { return !in_range(m.t_us); });
+  std::erase_if(extras.poses, [&](const spikems::PoseSample& p) { return !in_range(p.t_us); });
+  extras.events.sensor = sensor;
+  writer->write_extras(extras);
+  writer->close();
+  if (!a.quiet)
+    std::printf("%s -> %s: %llu events written (%llu read), %zu mask frames\n", a.in.c_str(),
+                a.out.c_str(), static_cast<unsigned long long>(written),
+                static_cast<unsigned long long>(read_total), extras.masks.size());
+}
+
+void add(CLI::App& app) {
+  auto a = std::make_shared<ConvertArgs>();
+  auto* cmd = app.add_subcommand(
+      "convert",
+      "Convert an event file to another format, chunk by chunk (mask frames, intrinsics and "
+      "metadata are carried over where both formats hold them); the output appears atomically");
+  cmd->add_option("input", a->in, "Input event file or dataset folder")->required();
+  cmd->add_option("output", a->out, "Output file (format from the extension or --format)")
+      ->required();
+  cmd->add_option("--format", a->out_format, "Output format (see `spikems formats`)");
+  cmd->add_option("--compression", a->compression, "Output compression where the format has it")
+      ->check(CLI::IsMember({"lz4", "zstd", "deflate", "none"}));
+  cmd->add_option("--level", a->level, "Compression level (format default when absent)");
+  cmd->add_option("--from", a->from,
+                  "Keep events from this time on (e.g. 1.5s, 250ms; from the first event)");
+  cmd->add_option("--to", a->to, "Keep events before this time (same units as --from)");
+  cmd->add_flag("--absolute", a->absolute,
+                "--from/--to are the file's own timestamps, not offsets from the first event");
+  cmd->add_flag("--sort", a->sort,
+                "Accept out-of-order timestamps and sort them (reads the whole file into memory)");
+  cmd->add_option("--in-format", a->in_format, "Force the input format");
+  cmd->add_option("--time-unit", a->time_unit, "Text input: unit of t (auto, s, us)")
+      ->check(CLI::IsMember({"auto", "s", "us"}));
+  cmd->add_option("--out-time-unit", a->out_time_unit, "Text output: unit of t (us, s)")
+      ->check(CLI::IsMember({"us", "s"}));
+  cmd->add_option("--width", a->width, "Sensor width where the input does not say")
+      ->check(CLI::Range(1, 65535));
+  cmd->add_option("--height", a->height, "Sensor height where the input does not say")
+      ->check(CLI::Range(1, 65535));
+  cmd->add_flag("-q,--quiet", a->quiet, "No progress bar or summary line");
+  cmd->footer(
+      "Examples:\n  spikems convert recording.raw recording.h5\n"
+      "  spikems convert seq.npz events.txt --from 2s --to 3.5s\n"
+      "  spikems convert in.aedat4 out.raw --format evt3");
+  cmd->callback([a] {
+    if ((a->width > 0) != (a->height > 0))
+      spikems::fail(a->in, "", "pass both --width and --height");
+    run(*a);
+  });
+}
+
+}  // namespace
+
+SPIKEMS_COMMAND(convert, 20, add);
