@@ -1,0 +1,41 @@
+// One spiking layer (block): psp (eps * s) -> synapse (conv / transposed conv over all T*B
+// frames) -> spike (threshold + refractory) -> optional axonal delay. Built from a LayerSpec;
+// the weight (and delay) are the trainable parameters, the kernels are fixed.
+#pragma once
+
+#include <torch/torch.h>
+
+#include "core/model/model_file.h"
+#include "train/neuron/spike.h"
+#include "train/neuron/temporal_kernel.h"
+#include "train/synapse/conv.h"
+
+namespace spikems::train {
+
+class SpikingLayerImpl : public torch::nn::Module {
+ public:
+  SpikingLayerImpl(const LayerSpec& spec, double ts,
+                   SpikeGradient gradient = SpikeGradient::Slayer);
+
+  // x: [T, B, C_in, H, W] spikes -> [T, B, C_out, H', W'] spikes.
+  torch::Tensor forward(const torch::Tensor& x);
+  // The synaptic potential u = W (*) (eps * x), before spike generation (for diagnostics).
+  torch::Tensor potential(const torch::Tensor& x);
+
+  // The layer spec with the current weight and delay values.
+  LayerSpec to_spec() const;
+  void set_gradient(SpikeGradient g) { spike_.gradient = g; }
+  void enable_delay(bool on);  // adds a zero-initialised learnable delay if absent
+
+  torch::Tensor weight, delay;  // delay undefined when the layer has none
+
+ private:
+  LayerSpec spec_;  // geometry and neuron parameters (weights kept in `weight`)
+  double ts_;
+  TemporalKernel eps_;
+  SpikeParams spike_;
+  SynapseGeometry geom_;
+};
+TORCH_MODULE(SpikingLayer);
+
+}  // namespace spikems::train

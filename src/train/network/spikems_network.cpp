@@ -1,0 +1,57 @@
+#include "train/network/spikems_network.h"
+
+namespace spikems::train {
+
+SpikeMSNetworkImpl::SpikeMSNetworkImpl(const ModelSpec& spec, SpikeGradient gradient)
+    : spec_(spec) {
+  spec.validate(spec.name);
+  for (size_t k = 0; k < spec.layers.size(); ++k)
+    layers_.push_back(register_module("layer" + std::to_string(k + 1),
+                                      SpikingLayer(spec.layers[k], spec.time_step_ms, gradient)));
+  for (auto& l : spec_.layers) {
+    l.weight.clear();
+    l.delay.clear();
+  }
+}
+
+torch::Tensor SpikeMSNetworkImpl::forward(const torch::Tensor& x) {
+  torch::Tensor s = x;
+  for (auto& l : layers_) s = l->forward(s);
+  return s;
+}
+
+std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all(const torch::Tensor& x) {
+  std::vector<torch::Tensor> out;
+  torch::Tensor s = x;
+  for (auto& l : layers_) out.push_back(s = l->forward(s));
+  return out;
+}
+
+ModelSpec SpikeMSNetworkImpl::to_spec() const {
+  ModelSpec s = spec_;
+  for (size_t k = 0; k < layers_.size(); ++k) s.layers[k] = layers_[k]->to_spec();
+  return s;
+}
+
+void SpikeMSNetworkImpl::set_gradient(SpikeGradient g) {
+  for (auto& l : layers_) l->set_gradient(g);
+}
+
+std::vector<torch::Tensor> forward_all_layers(const ModelSpec& spec, const torch::Tensor& input) {
+  TORCH_CHECK(input.dim() == 5, "forward_all_layers: input must be [T, B, C, H, W]");
+  torch::NoGradGuard no_grad;
+  SpikeMSNetwork net(spec);
+  return net->forward_all(input);
+}
+
+torch::Tensor align_to_input(const torch::Tensor& y, int64_t height, int64_t width) {
+  const int64_t d = y.dim();
+  TORCH_CHECK(d >= 2, "align_to_input: needs at least 2 dims");
+  torch::Tensor c = y.narrow(d - 2, 0, std::min(height, y.size(d - 2)))
+                        .narrow(d - 1, 0, std::min(width, y.size(d - 1)));
+  const int64_t ph = height - c.size(d - 2), pw = width - c.size(d - 1);
+  if (ph == 0 && pw == 0) return c;
+  return torch::constant_pad_nd(c, {0, pw, 0, ph}, 0);
+}
+
+}  // namespace spikems::train

@@ -1,0 +1,48 @@
+// The SpikeMS network (or any stack of spiking layers) built from a ModelSpec.
+//
+// Layout: time-major spikes [T, B, C, H, W] (float; spikes are 1/Ts). Each layer is a
+// SpikingLayer (block/spiking_layer.h). The output grid is aligned to the input grid by its
+// TOP-LEFT corner: output pixel (y, x) covers input pixel (y, x) (as the authors' test code
+// crops to [:H_out, :W_out]); `align_to_input` crops an output that is larger than the input
+// (padded geometry on sizes not a multiple of 8) and zero-pads one that is smaller (the
+// authors' unpadded geometry, 63x79 for 64x80) at the bottom and right.
+#pragma once
+
+#include <torch/torch.h>
+
+#include <vector>
+
+#include "core/model/model_file.h"
+#include "train/block/spiking_layer.h"
+
+namespace spikems::train {
+
+class SpikeMSNetworkImpl : public torch::nn::Module {
+ public:
+  explicit SpikeMSNetworkImpl(const ModelSpec& spec,
+                              SpikeGradient gradient = SpikeGradient::Slayer);
+
+  torch::Tensor forward(const torch::Tensor& x);                   // last layer's spikes
+  std::vector<torch::Tensor> forward_all(const torch::Tensor& x);  // every layer's spikes
+
+  // The spec with the current parameter values (for save_model).
+  ModelSpec to_spec() const;
+  void set_gradient(SpikeGradient g);
+  size_t size() const { return layers_.size(); }
+  SpikingLayer& layer(size_t k) { return layers_[k]; }
+
+ private:
+  ModelSpec spec_;  // without weights
+  std::vector<SpikingLayer> layers_;
+};
+TORCH_MODULE(SpikeMSNetwork);
+
+// One call for C++ users (the streaming runtime compares against it): runs every layer of
+// `spec` on input [T, B, C, H, W] (float32 CPU), without gradients, and returns the spikes of
+// each layer, [T, B, C_k, H_k, W_k], in the model's own geometry (no alignment).
+std::vector<torch::Tensor> forward_all_layers(const ModelSpec& spec, const torch::Tensor& input);
+
+// Crops or zero-pads the last two dims of y to (height, width), top-left aligned.
+torch::Tensor align_to_input(const torch::Tensor& y, int64_t height, int64_t width);
+
+}  // namespace spikems::train
