@@ -43,14 +43,21 @@ std::pair<int, int> binned_size(SensorSize sensor, const BinningConfig& cfg);
 struct PixelMap {
   PixelMap(SensorSize sensor, const BinningConfig& cfg);
   int H = 0, W = 0;
+  // Output column of sensor column x, or -1 outside the crop (likewise rows).
+  int map_x(int x) const {
+    int c = x - x0_;
+    if (unsigned(c) >= unsigned(cw_)) return -1;
+    return (fx_ ? cw_ - 1 - c : c) / f_;
+  }
+  int map_y(int y) const {
+    int c = y - y0_;
+    if (unsigned(c) >= unsigned(ch_)) return -1;
+    return (fy_ ? ch_ - 1 - c : c) / f_;
+  }
   bool map(int x, int y, int& ox, int& oy) const {
-    int cx = x - x0_, cy = y - y0_;
-    if (unsigned(cx) >= unsigned(cw_) || unsigned(cy) >= unsigned(ch_)) return false;
-    if (fx_) cx = cw_ - 1 - cx;
-    if (fy_) cy = ch_ - 1 - cy;
-    ox = cx / f_;
-    oy = cy / f_;
-    return true;
+    ox = map_x(x);
+    oy = map_y(y);
+    return ox >= 0 && oy >= 0;
   }
 
  private:
