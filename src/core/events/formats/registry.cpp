@@ -15,6 +15,7 @@ FormatInfo evimo1_format();
 FormatInfo evimo1_txt_format();
 FormatInfo spikems_h5_format();
 FormatInfo dsec_format();
+FormatInfo evimo2_format();
 FormatInfo evt2_format();
 FormatInfo evt3_format();
 FormatInfo dat_format();
@@ -32,6 +33,7 @@ std::vector<FormatInfo> make_format_list() {
   v.push_back(evimo1_txt_format());
   v.push_back(spikems_h5_format());
   v.push_back(dsec_format());
+  v.push_back(evimo2_format());
   v.push_back(evt2_format());
   v.push_back(evt3_format());
   v.push_back(dat_format());

@@ -1,0 +1,236 @@
+// Text events, npz events and the EVIMO2 folder: round trips, the time-unit rule, stdin,
+// and bad lines reported with their line numbers.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "common/test_paths.h"
+#include "core/events/formats/npy.h"
+#include "core/events/formats/text.h"
+#include "core/events/io.h"
+#include "core/util/byte_source.h"
+#include "core/util/error.h"
+
+namespace spikems {
+namespace {
+
+EventStream sample(size_t n, bool labels) {
+  EventStream ev;
+  ev.sensor = {346, 260};
+  for (size_t i = 0; i < n; ++i) {
+    int64_t t = 1600000000000000 + int64_t(i) * 13 + int64_t(i % 7);
+    if (labels)
+      ev.push_back(t, uint16_t(i % 346), uint16_t(i % 260), uint8_t(i % 2), uint16_t(i % 4));
+    else
+      ev.push_back(t, uint16_t(i % 346), uint16_t(i % 260), uint8_t(i % 2));
+  }
+  return ev;
+}
+
+EventStream read_string(const std::string& text, ReadOptions opt = {}) {
+  auto src =
+      open_memory_source(reinterpret_cast<const uint8_t*>(text.data()), text.size(), "mem.txt");
+  auto r = open_text_reader(std::move(src), opt);
+  EventStream ev;
+  while (r->read(ev, 1000) > 0) {
+  }
+  if (!ev.sensor.known()) ev.sensor = r->sensor();
+  return ev;
+}
+
+std::string error_of(const std::string& text, ReadOptions opt = {}) {
+  try {
+    read_string(text, opt);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Text, RoundTripMicrosecondsAndSecondsWithLabels) {
+  std::string dir = test::scratch_dir();
+  for (bool labels : {false, true})
+    for (std::string unit : {"us", "s"}) {
+      EventStream ev = sample(25000, labels);
+      std::string p = dir + "/e_" + unit + (labels ? "l" : "") + ".txt";
+      WriteOptions o;
+      o.time_unit = unit;
+      Recording r;
+      r.events = ev;
+      write_recording(p, r, o);
+      EXPECT_EQ(detect_format(p).name, "text");
+      EventStream back = read_events(p);  // unit from the "# time_unit" comment
+      EXPECT_EQ(back.sensor, ev.sensor);
+      EXPECT_EQ(back.t, ev.t) << unit;  // seconds are written with exactly 6 decimals
+      EXPECT_EQ(back.x, ev.x);
+      EXPECT_EQ(back.p, ev.p);
+      EXPECT_EQ(back.label, ev.label);
+    }
+}
+
+TEST(Text, TimeUnitRuleAndOverride) {
+  // No header: a '.' in the first events means seconds.
+  EventStream a = read_string("0.5 1 2 1\n1.25 3 4 0\n");
+  EXPECT_EQ(a.t, (std::vector<int64_t>{500000, 1250000}));
+  EventStream b = read_string("500 1 2 1\n1250 3 4 0\n");
+  EXPECT_EQ(b.t, (std::vector<int64_t>{500, 1250}));
+  // A later fractional value within the look-ahead still selects seconds.
+  EventStream c = read_string("0 1 2 1\n1e-3 3 4 0\n");
+  EXPECT_EQ(c.t, (std::vector<int64_t>{0, 1000}));
+  ReadOptions s;
+  s.time_unit = "s";
+  EXPECT_EQ(read_string("2 1 2 1\n", s).t, (std::vector<int64_t>{2000000}));
+  ReadOptions us;
+  us.time_unit = "us";
+  EXPECT_NE(error_of("0.5 1 2 1\n", us).find("--time-unit s"), std::string::npos);
+}
+
+TEST(Text, HeaderSensorAndMaxPlusOne) {
+  EventStream e = read_string("# sensor 40 30\n10,1,2,-1\n11\t3\t4\t+1\r\n12 5 6 0\n");
+  EXPECT_EQ(e.sensor, (SensorSize{40, 30}));
+  EXPECT_EQ(e.p, (std::vector<uint8_t>{0, 1, 0}));
+  EXPECT_EQ(e.t, (std::vector<int64_t>{10, 11, 12}));
+  EventStream f = read_string("10 7 2 1\n11 3 9 0\n");
+  EXPECT_EQ(f.sensor, (SensorSize{8, 10}));
+  ReadOptions o;
+  o.sensor = {100, 100};
+  EXPECT_EQ(read_string("# sensor 40 30\n10 7 2 1\n", o).sensor, (SensorSize{100, 100}));
+}
+
+TEST(Text, BadLinesNameTheLine) {
+  struct Case {
+    std::string text, expect;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"1 2 3 1\n2 2 3\n", "line 2"},
+           {"1 2 3 1\n2 2 3 1 4\n", "line 2"},
+           {"# c\n1 2 3 1\nx 2 3 1\n", "line 3"},
+           {"1 2 3 1\n2 -2 3 1\n", "line 2"},
+           {"1 2 3 1\n2 2 70000 1\n", "line 2"},
+           {"1 2 3 1\n2 2 3 2\n", "polarity"},
+           {"0.1 2 3 1\nnan 2 3 1\n", "line 2"},
+           {"0.1 2 3 1\ninf 2 3 1\n", "line 2"},
+           {"0.1 2 3 1\n1e300 2 3 1\n", "line 2"},
+           {"# sensor 0 10\n1 2 3 1\n", "sensor"},
+           {"1 2 3 1 2 3 4\n", "line 1"},
+       }) {
+    std::string e = error_of(c.text);
+    EXPECT_NE(e.find(c.expect), std::string::npos) << c.text << " -> " << e;
+    EXPECT_NE(e.find("mem.txt"), std::string::npos) << e;
+  }
+  std::string binary(10000, '\x01');
+  EXPECT_NE(error_of(binary).find("longer than"), std::string::npos);
+}
+
+TEST(Text, OutOfSensorAndBackwardsTimeThroughOpenReader) {
+  std::string dir = test::scratch_dir();
+  std::ofstream(dir + "/a.txt") << "# sensor 10 10\n1 2 3 1\n2 12 3 1\n";
+  EXPECT_THROW(read_events(dir + "/a.txt"), Error);
+  std::ofstream(dir + "/b.txt") << "5 2 3 1\n2 1 3 1\n";
+  EXPECT_THROW(read_events(dir + "/b.txt"), Error);
+  ReadOptions o;
+  o.sort = true;
+  EXPECT_EQ(read_events(dir + "/b.txt", o).t, (std::vector<int64_t>{2, 5}));
+}
+
+TEST(Text, ReadsStandardInput) {
+  std::string dir = test::scratch_dir();
+  std::ofstream(dir + "/in.txt") << "# sensor 20 20\n0.000001 1 2 1\n0.000002 3 4 0\n";
+  ASSERT_NE(std::freopen((dir + "/in.txt").c_str(), "r", stdin), nullptr);
+  const FormatInfo* f = find_format("text");
+  ASSERT_NE(f, nullptr);
+  auto src = open_stdin_source();
+  EXPECT_EQ(src->head(6).size(), 6u);  // peeking then reading from the start works
+  auto r = f->open_bytes(std::move(src), ReadOptions{});
+  EventStream ev;
+  while (r->read(ev, 1) > 0) {
+  }
+  EXPECT_EQ(ev.t, (std::vector<int64_t>{1, 2}));
+  EXPECT_EQ(ev.sensor, (SensorSize{20, 20}));
+}
+
+TEST(NpzEvents, RoundTripStoredAndDeflate) {
+  std::string dir = test::scratch_dir();
+  for (std::string comp : {"none", "deflate"}) {
+    Recording r;
+    r.events = sample(10000, true);
+    WriteOptions o;
+    o.compression = comp;
+    std::string p = dir + "/ev_" + comp + ".npz";
+    write_recording(p, r, o);
+    EXPECT_EQ(detect_format(p).name, "npz");
+    auto z = read_npz(p);
+    EXPECT_EQ(z["t"].descr, "<i8");
+    EXPECT_EQ(z["x"].descr, "<u2");
+    EXPECT_EQ(z["p"].descr, "|u1");
+    EventStream back = read_events(p);
+    EXPECT_EQ(back.t, r.events.t);
+    EXPECT_EQ(back.y, r.events.y);
+    EXPECT_EQ(back.label, r.events.label);
+    EXPECT_EQ(back.sensor, r.events.sensor);
+  }
+}
+
+TEST(NpzEvents, FloatSecondsSignedPolarityAndBadArrays) {
+  std::string dir = test::scratch_dir();
+  std::map<std::string, NpyArray> a;
+  a["t"] = NpyArray::from(std::vector<double>{0.5, 0.75}, {2});
+  a["x"] = NpyArray::from(std::vector<int32_t>{1, 2}, {2});
+  a["y"] = NpyArray::from(std::vector<int32_t>{3, 4}, {2});
+  a["p"] = NpyArray::from(std::vector<int8_t>{-1, 1}, {2});
+  write_npz(dir + "/f.npz", a, false);
+  EventStream e = read_events(dir + "/f.npz");
+  EXPECT_EQ(e.t, (std::vector<int64_t>{500000, 750000}));
+  EXPECT_EQ(e.p, (std::vector<uint8_t>{0, 1}));
+  EXPECT_EQ(e.sensor, (SensorSize{3, 5}));
+  a["x"] = NpyArray::from(std::vector<int32_t>{1, 2, 3}, {3});
+  write_npz(dir + "/g.npz", a, false);
+  EXPECT_THROW(read_events(dir + "/g.npz"), Error);
+  a["x"] = NpyArray::from(std::vector<int32_t>{1, -2}, {2});
+  write_npz(dir + "/h.npz", a, false);
+  EXPECT_THROW(read_events(dir + "/h.npz"), Error);
+  a["x"] = NpyArray::from(std::vector<int32_t>{1, 2}, {2});
+  a["t"] = NpyArray::from(std::vector<double>{0.5, std::nan("")}, {2});
+  write_npz(dir + "/i.npz", a, false);
+  EXPECT_THROW(read_events(dir + "/i.npz"), Error);
+}
+
+TEST(Evimo2, SyntheticFolder) {
+  std::string dir = test::scratch_dir();
+  write_npy(dir + "/dataset_events_t.npy", NpyArray::from(std::vector<double>{1.0, 1.5, 2.0}, {3}));
+  write_npy(dir + "/dataset_events_xy.npy",
+            NpyArray::from(std::vector<uint16_t>{10, 20, 639, 479, 0, 0}, {3, 2}));
+  write_npy(dir + "/dataset_events_p.npy", NpyArray::from(std::vector<uint8_t>{1, 0, 1}, {3}));
+  std::vector<uint16_t> m0(640 * 480, 0), m1(640 * 480, 0);
+  m0[20 * 640 + 10] = 23000;
+  m1[479 * 640 + 639] = 5000;
+  write_npz(dir + "/dataset_mask.npz",
+            {{"mask_0000000001", NpyArray::from(m1, {480, 640})},
+             {"mask_0000000000", NpyArray::from(m0, {480, 640})}},
+            true);
+  write_npz(dir + "/dataset_info.npz",
+            {{"K", NpyArray::from(std::vector<double>{520, 0, 320, 0, 521, 240, 0, 0, 1}, {3, 3})},
+             {"D", NpyArray::from(std::vector<double>{0.01, 0.02, 0, 0}, {4})}},
+            false);
+  EXPECT_EQ(detect_format(dir).name, "evimo2");
+  Recording r = read_recording(dir);
+  EXPECT_EQ(r.events.t, (std::vector<int64_t>{1000000, 1500000, 2000000}));
+  EXPECT_EQ(r.events.x[1], 639);
+  EXPECT_EQ(r.events.sensor, (SensorSize{640, 480}));
+  ASSERT_EQ(r.masks.size(), 2u);
+  EXPECT_EQ(r.masks[0].at(10, 20), 23);
+  EXPECT_EQ(r.masks[1].at(639, 479), 5);
+  EXPECT_EQ(r.masks[0].t_us, 1250000);  // uniform estimate over 1 s, 2 frames
+  EXPECT_EQ(r.masks[1].t_us, 1750000);
+  EXPECT_EQ(r.intrinsics->fy, 521);
+  std::ofstream(dir + "/meta.txt") << "{'frames': [{'ts': 1.1}, {'ts': 1.9}]}";
+  r = read_recording(dir);
+  EXPECT_EQ(r.masks[0].t_us, 1100000);
+  EXPECT_EQ(r.masks[1].t_us, 1900000);
+}
+
+}  // namespace
+}  // namespace spikems
