@@ -10,6 +10,10 @@ namespace spikems {
 BlockInput::BlockInput(std::unique_ptr<ByteSource> src, size_t block)
     : src_(std::move(src)), block_(block) {
   base_ = src_->offset();
+  // No larger than the input (a small file should not cost a large zeroed buffer).
+  uint64_t size = src_->size();
+  if (size != UINT64_MAX && size - std::min(size, base_) + 16 < block_)
+    block_ = size_t(size - std::min(size, base_) + 16);
   buf_.resize(block_);
 }
 
@@ -93,6 +97,8 @@ std::vector<std::string> BlockInput::read_header_lines(char prefix, const std::s
                      "header longer than " + std::to_string(max_bytes) +
                          " bytes: not a valid header (binary data where text was expected)");
       if (nl) break;
+      if (fill(1) == 0)
+        fail_at_byte(name(), offset(), "file is truncated inside its header (a line has no end)");
     }
     if (!line.empty() && line.back() == '\r') line.pop_back();
     lines.push_back(line);
@@ -106,27 +112,33 @@ size_t CameraReader::read(EventStream& out, size_t max_events) {
   const size_t start = out.size();
   const size_t cap = std::min<size_t>(max_events, size_t(1) << 22);
   const bool labels = out.has_labels();
-  const size_t room = start + std::max(cap, carry_.size()) + kSlack;
-  out.t.resize(room);
-  out.x.resize(room);
-  out.y.resize(room);
-  out.p.resize(room);
-  Out o{out.t.data() + start,
-        out.x.data() + start,
-        out.y.data() + start,
-        out.p.data() + start,
-        0,
-        cap};
   std::vector<Event> pending;
   pending.swap(carry_);
-  for (const Event& e : pending) {
-    o.t[o.n] = e.t;
-    o.x[o.n] = e.x;
-    o.y[o.n] = e.y;
-    o.p[o.n] = e.p;
-    ++o.n;
+  Out o{nullptr, nullptr, nullptr, nullptr, 0, 0};
+  // Grow the arrays step by step (zero-filling a whole chunk for a short file costs more
+  // than decoding it); each step lets decode() write by index.
+  for (;;) {
+    o.cap = std::min(cap, o.n + (size_t(1) << 16));
+    const size_t room = start + std::max(o.cap, o.n + pending.size()) + kSlack;
+    out.t.resize(room);
+    out.x.resize(room);
+    out.y.resize(room);
+    out.p.resize(room);
+    o.t = out.t.data() + start;
+    o.x = out.x.data() + start;
+    o.y = out.y.data() + start;
+    o.p = out.p.data() + start;
+    for (const Event& e : pending) {
+      o.t[o.n] = e.t;
+      o.x[o.n] = e.x;
+      o.y[o.n] = e.y;
+      o.p[o.n] = e.p;
+      ++o.n;
+    }
+    pending.clear();
+    if (o.n < o.cap) decode(o);
+    if (o.n < o.cap || o.n >= cap) break;  // the input ended, or the chunk is full
   }
-  if (o.n < cap) decode(o);
   for (size_t i = cap; i < o.n; ++i) carry_.push_back(Event{o.t[i], o.x[i], o.y[i], o.p[i], 0});
   size_t n = std::min(o.n, cap);
   out.t.resize(start + n);
