@@ -41,6 +41,26 @@ Crop resolve_crop(SensorSize sensor, const BinningConfig& cfg) {
   return c;
 }
 
+// Per-axis lookup tables of a PixelMap: output column per sensor column and output row offset
+// (row * W) per sensor row, -1 outside the crop.
+struct AxisTables {
+  std::vector<int32_t> xo, yo;
+  AxisTables(SensorSize sensor, const PixelMap& pm)
+      : xo(size_t(sensor.width), -1), yo(size_t(sensor.height), -1) {
+    for (int x = 0; x < sensor.width; ++x) xo[size_t(x)] = pm.map_x(x);
+    for (int y = 0; y < sensor.height; ++y) {
+      int oy = pm.map_y(y);
+      yo[size_t(y)] = oy < 0 ? -1 : oy * pm.W;
+    }
+  }
+  // Output offset y*W + x of a sensor pixel, or -1 (outside the crop or the sensor).
+  int32_t offset(uint16_t x, uint16_t y) const {
+    if (x >= xo.size() || y >= yo.size()) return -1;
+    int32_t ox = xo[x], oy = yo[y];
+    return (ox | oy) < 0 ? -1 : oy + ox;
+  }
+};
+
 }  // namespace
 
 std::pair<int, int> binned_size(SensorSize sensor, const BinningConfig& cfg) {
@@ -75,14 +95,9 @@ SpikeTensor bin_events(const EventStream& ev, int64_t t0, int64_t window_us,
   s.data.assign(size_t(s.T) * 2 * size_t(s.H) * size_t(s.W), 0);
   auto [b, e] = ev.time_range(t0, t0 + window_us);
   const size_t plane = size_t(s.H) * size_t(s.W);
-  // Per-axis lookup tables (crop, flip, downsample folded in; -1 = outside the crop) and a walk
-  // over step boundaries instead of a division per event: the inner loop is loads and a store.
-  std::vector<int32_t> xo(size_t(ev.sensor.width), -1), yo(size_t(ev.sensor.height), -1);
-  for (int x = 0; x < ev.sensor.width; ++x) xo[size_t(x)] = pm.map_x(x);
-  for (int y = 0; y < ev.sensor.height; ++y) {
-    int oy = pm.map_y(y);
-    yo[size_t(y)] = oy < 0 ? -1 : oy * s.W;
-  }
+  // Per-axis lookup tables (crop, flip, downsample folded in) and a walk over step boundaries
+  // instead of a division per event: the inner loop is loads and a store.
+  const AxisTables tab(ev.sensor, pm);
   const int64_t* t = ev.t.data();
   const uint16_t* xs = ev.x.data();
   const uint16_t* ys = ev.y.data();
@@ -92,11 +107,8 @@ SpikeTensor bin_events(const EventStream& ev, int64_t t0, int64_t window_us,
     const int64_t step_end = t0 + int64_t(step + 1) * cfg.step_us;
     uint8_t* base = s.data.data() + size_t(step) * 2 * plane;
     for (; i < e && t[i] < step_end; ++i) {
-      // Coordinates beyond a declared sensor cannot reach here (readers validate); guard anyway.
-      if (xs[i] >= xo.size() || ys[i] >= yo.size()) continue;
-      int32_t ox = xo[xs[i]], oy = yo[ys[i]];
-      if ((ox | oy) < 0) continue;
-      base[ps[i] * plane + size_t(oy) + size_t(ox)] = 1;
+      int32_t k = tab.offset(xs[i], ys[i]);
+      if (k >= 0) base[ps[i] * plane + size_t(k)] = 1;
     }
   }
   return s;
@@ -116,12 +128,13 @@ WindowTruth window_truth(const EventStream& ev, int64_t t0, int64_t window_us,
   is_fg[0] = 0;
   for (uint16_t id : moving_ids)
     if (id != 0) is_fg[id] = 1;
+  const AxisTables tab(ev.sensor, pm);
+  const bool labelled = ev.has_labels();
   for (size_t i = b; i < e; ++i) {
-    int ox, oy;
-    if (!pm.map(ev.x[i], ev.y[i], ox, oy)) continue;
-    size_t k = size_t(oy) * size_t(w.W) + size_t(ox);
-    w.any[k] = 1;
-    if (ev.has_labels() && is_fg[ev.label[i]]) w.fg[k] = 1;
+    int32_t k = tab.offset(ev.x[i], ev.y[i]);
+    if (k < 0) continue;
+    w.any[size_t(k)] = 1;
+    if (labelled && is_fg[ev.label[i]]) w.fg[size_t(k)] = 1;
   }
   return w;
 }
