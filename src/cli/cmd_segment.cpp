@@ -1,0 +1,312 @@
+// `spikems segment`: event-by-event motion segmentation with the streaming SNN runtime.
+// Reads any event format chunk by chunk (or text lines from stdin, live), labels every event
+// foreground/background, and optionally writes mask frames, tracked boxes and statistics.
+#include <unistd.h>
+
+#include <chrono>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include "cli/command.h"
+#include "core/events/io.h"
+#include "core/model/model_file.h"
+#include "core/runtime/kalman_tracker.h"
+#include "core/runtime/segmenter.h"
+#include "core/util/atomic_file.h"
+#include "core/util/duration.h"
+#include "core/util/error.h"
+#include "core/util/interrupt.h"
+#include "core/util/progress.h"
+#include "core/viz/image.h"
+
+namespace {
+
+using namespace spikems;
+
+struct Args {
+  std::string model, input, out, masks_dir, boxes;
+  std::string mask_window = "10ms";
+  bool mask_window_set = false;
+  bool stats = false, quiet = false;
+  int threads = 1;
+  int64_t step_us = 0;
+  int tolerance = 3;
+  cli::ReadFlags read;
+};
+
+// Text lines "t x y p" from stdin, one event at a time, so that a live stream is answered as
+// it arrives. t in microseconds, or seconds when it has a decimal point (--time-unit auto).
+class StdinTextSource {
+ public:
+  explicit StdinTextSource(std::string unit) : unit_(std::move(unit)) {}
+  // Reads up to max events; returns false at the end of input.
+  bool read(EventStream& out, size_t max) {
+    char line[512];
+    size_t n = 0;
+    while (n < max && std::fgets(line, sizeof line, stdin)) {
+      ++line_no_;
+      char* s = line;
+      while (*s == ' ' || *s == '\t') ++s;
+      if (*s == '#' || *s == '\n' || *s == '\r' || *s == 0) continue;
+      for (char* c = s; *c; ++c)
+        if (*c == ',') *c = ' ';
+      char tbuf[64];
+      long x, y, p;
+      if (std::sscanf(s, "%63s %ld %ld %ld", tbuf, &x, &y, &p) != 4)
+        fail_at_line("stdin", line_no_, "expected 't x y p'");
+      bool secs = unit_ == "s" || (unit_ == "auto" && std::strpbrk(tbuf, ".eE"));
+      char* end = nullptr;
+      double tv = std::strtod(tbuf, &end);
+      if (*end || !std::isfinite(tv))
+        fail_at_line("stdin", line_no_, "bad time '" + std::string(tbuf) + "'");
+      int64_t t = secs ? std::llround(tv * 1e6) : std::llround(tv);
+      if (x < 0 || y < 0 || x > 65535 || y > 65535 || (p != 0 && p != 1 && p != -1))
+        fail_at_line("stdin", line_no_, "x, y must be 0..65535 and p 0/1 (or -1)");
+      out.push_back(t, uint16_t(x), uint16_t(y), uint8_t(p == 1 ? 1 : 0));
+      ++n;
+      if (live_) break;  // hand each event on at once
+    }
+    return n > 0;
+  }
+  void set_live(bool v) { live_ = v; }
+
+ private:
+  std::string unit_;
+  uint64_t line_no_ = 0;
+  bool live_ = true;
+};
+
+// Labelled events out: "t_us x y p label" text (.txt / .csv / "-" for stdout), or any
+// format with a writer (labels kept where it has them).
+class LabelSink {
+ public:
+  LabelSink(const std::string& path, SensorSize sensor) : path_(path) {
+    std::string ext = std::filesystem::path(path).extension().string();
+    if (path == "-") {
+      f_ = stdout;
+    } else if (ext == ".txt" || ext == ".csv") {
+      file_ = std::make_unique<AtomicFile>(path);
+      f_ = file_->handle();
+    } else {
+      writer_ = open_writer(path, sensor);
+    }
+    if (f_) std::fprintf(f_, "# t_us x y p label (1 = moving object, 0 = background)\n");
+  }
+  void write(const EventStream& ev) {
+    if (ev.empty()) return;
+    if (writer_) {
+      writer_->write(ev);
+      return;
+    }
+    for (size_t i = 0; i < ev.size(); ++i)
+      std::fprintf(f_, "%" PRId64 " %u %u %u %u\n", ev.t[i], unsigned(ev.x[i]), unsigned(ev.y[i]),
+                   unsigned(ev.p[i]), unsigned(ev.label[i]));
+    if (f_ == stdout) std::fflush(stdout);
+  }
+  void close() {
+    if (writer_) writer_->close();
+    if (file_) file_->commit();
+  }
+
+ private:
+  std::string path_;
+  std::FILE* f_ = nullptr;
+  std::unique_ptr<AtomicFile> file_;
+  std::unique_ptr<EventWriter> writer_;
+};
+
+Image mask_image(const PredictionFrame& f) {
+  Image img(f.width, f.height, 0, 0, 0);
+  for (int y = 0; y < f.height; ++y)
+    for (int x = 0; x < f.width; ++x) {
+      size_t i = size_t(y) * f.width + x;
+      if (f.foreground[i])
+        img.set(x, y, 255, 255, 255);
+      else if (f.events[i])
+        img.set(x, y, 90, 90, 90);
+    }
+  return img;
+}
+
+void print_stats(const Segmenter& seg, double wall_s) {
+  const auto st = seg.network().stats();
+  const double steps = double(std::max<int64_t>(1, seg.steps()));
+  std::fprintf(stderr, "\n%-6s %10s %12s %12s %10s %14s\n", "layer", "neurons", "in spikes",
+               "out spikes", "rate", "SynOps");
+  uint64_t syn = 0;
+  for (size_t k = 0; k < st.size(); ++k) {
+    syn += st[k].synops;
+    std::fprintf(stderr, "%-6zu %10zu %12" PRIu64 " %12" PRIu64 " %10.5f %14" PRIu64 "\n", k + 1,
+                 st[k].neurons, st[k].in_spikes, st[k].out_spikes,
+                 double(st[k].out_spikes) / (double(st[k].neurons) * steps), st[k].synops);
+  }
+  std::fprintf(stderr, "%-6s %10s %12s %12s %10s %14" PRIu64 "\n", "total", "", "", "", "", syn);
+  const double sim_s = double(seg.steps()) * double(seg.step_us()) * 1e-6;
+  std::fprintf(
+      stderr,
+      "events %" PRIu64 " (%.1f%% foreground), %" PRId64 " steps of %" PRId64
+      " us, label window %d steps\n",
+      seg.events_in(),
+      seg.events_in() ? 100.0 * double(seg.foreground_events()) / double(seg.events_in()) : 0.0,
+      seg.steps(), seg.step_us(), seg.label_window_steps());
+  std::fprintf(stderr,
+               "simulated %.3f s in %.3f s wall (network %.3f s): %s events/s, real-time factor "
+               "%.2f (network only %.2f)\n",
+               sim_s, wall_s, seg.network_seconds(),
+               human_count(double(seg.events_in()) / std::max(wall_s, 1e-9)).c_str(),
+               sim_s / std::max(wall_s, 1e-9), sim_s / std::max(seg.network_seconds(), 1e-9));
+}
+
+void run(const Args& a) {
+  install_interrupt_flag();
+  install_interrupt_cleanup();
+  if (a.threads != 1)
+    std::fprintf(stderr,
+                 "spikems segment: note: the runtime runs on one thread (--threads %d "
+                 "ignored; see docs/runtime.md)\n",
+                 a.threads);
+  ModelSpec model = load_model(a.model);
+  ReadOptions ro;
+  ro.sort = a.read.sort;
+  ro.time_unit = a.read.time_unit;
+  ro.format = a.read.format;
+  if (a.read.width > 0 && a.read.height > 0)
+    ro.sensor = SensorSize{a.read.width, a.read.height};
+  else if (a.read.width > 0 || a.read.height > 0)
+    fail("spikems segment", "", "give both --width and --height");
+
+  const bool from_stdin = a.input == "-";
+  std::unique_ptr<EventReader> reader;
+  std::optional<StdinTextSource> stdin_src;
+  SensorSize sensor = ro.sensor;
+  if (from_stdin) {
+    stdin_src.emplace(a.read.time_unit);
+    if (!sensor.known()) sensor = SensorSize{model.input_width, model.input_height};
+    if (!sensor.known())
+      fail("stdin", "", "a text stream has no header: give the sensor size with --width/--height");
+  } else {
+    reader = open_reader(a.input, ro);
+    if (!sensor.known()) sensor = reader->sensor();
+  }
+
+  SegmenterOptions so;
+  so.step_us = a.step_us;
+  so.label_tolerance_steps = a.tolerance;
+  int64_t window = 0;
+  if (!a.masks_dir.empty() || !a.boxes.empty() || a.mask_window_set)
+    window = parse_duration_us(a.mask_window);
+  so.mask_window_us = window;
+
+  std::optional<Segmenter> seg;
+  std::optional<LabelSink> sink;
+  std::unique_ptr<AtomicFile> boxes;
+  KalmanTracker tracker;
+  if (!a.masks_dir.empty()) std::filesystem::create_directories(a.masks_dir);
+  if (!a.boxes.empty()) {
+    boxes = std::make_unique<AtomicFile>(a.boxes);
+    boxes->write(std::string("t_us,id,x0,y0,x1,y1,vx,vy\n"));
+  }
+  auto init = [&](SensorSize s) {
+    if (!s.known())
+      fail(a.input, "", "the sensor size is unknown; give it with --width and --height");
+    seg.emplace(model, s, so, a.input);
+    if (!a.out.empty()) sink.emplace(a.out, s);
+  };
+  size_t frames_written = 0;
+  auto drain = [&]() {
+    if (sink) sink->write(seg->labelled());
+    seg->labelled().clear();
+    seg->labelled().add_zero_labels();
+    for (const auto& f : seg->frames()) {
+      if (!a.masks_dir.empty()) {
+        char name[64];
+        std::snprintf(name, sizeof name, "mask_%06d.png", f.index);
+        write_png((std::filesystem::path(a.masks_dir) / name).string(), mask_image(f));
+      }
+      if (boxes)
+        for (const auto& b : tracker.update(f.t1_us, f.foreground, f.width, f.height)) {
+          char line[256];
+          std::snprintf(line, sizeof line, "%" PRId64 ",%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f\n", b.t_us,
+                        b.id, b.x0, b.y0, b.x1, b.y1, b.vx, b.vy);
+          boxes->write(std::string(line));
+        }
+      ++frames_written;
+    }
+    seg->frames().clear();
+  };
+
+  const auto t0 = std::chrono::steady_clock::now();
+  bool stdout_busy = a.out == "-";
+  ProgressBar bar("segment", 0, "ev",
+                  !a.quiet && !stdout_busy && !from_stdin && isatty(fileno(stderr)));
+  EventStream chunk;
+  bool stopped = false;
+  while (true) {
+    if (interrupted()) {
+      stopped = true;
+      break;
+    }
+    chunk.clear();
+    bool more = from_stdin ? stdin_src->read(chunk, 1 << 16) : reader->read(chunk, 1 << 16) > 0;
+    if (!more) break;
+    if (!seg) init(sensor.known() ? sensor : chunk.sensor);
+    seg->push(chunk);
+    drain();
+    bar.update(seg->events_in());
+  }
+  if (!seg) init(sensor);  // an empty stream still gives (empty) outputs
+  seg->finish();
+  drain();
+  bar.finish();
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (sink) sink->close();
+  if (boxes) boxes->commit();
+  if (stopped)
+    std::fprintf(stderr,
+                 "spikems segment: interrupted; outputs hold the %" PRIu64 " events read so far\n",
+                 seg->events_in());
+  if (a.stats) print_stats(*seg, wall);
+  if (!a.masks_dir.empty() && !a.quiet)
+    std::fprintf(stderr, "%zu mask frames in %s\n", frames_written, a.masks_dir.c_str());
+}
+
+void add(CLI::App& app) {
+  static Args a;
+  auto* cmd = app.add_subcommand(
+      "segment",
+      "Label every event as moving object or background with the event-driven SNN runtime");
+  cmd->footer(
+      "An event of step t is foreground when the network's output spikes at its pixel within "
+      "steps t..t+L+tolerance (L = one step per layer). Text output: one line 't_us x y p "
+      "label' per event. See docs/runtime.md.");
+  cmd->add_option("--model", a.model, "Model file (.safetensors, spikems format)")->required();
+  cmd->add_option("--input", a.input, "Event file (any format), or - for text 't x y p' on stdin")
+      ->required();
+  cmd->add_option("--out", a.out,
+                  "Labelled events: .txt/.csv text (t_us x y p label), - for stdout, or any "
+                  "writable event format");
+  cmd->add_option("--masks-dir", a.masks_dir, "Write a PNG mask frame per window here");
+  cmd->add_option("--mask-window", a.mask_window, "Mask frame length (e.g. 10ms, 1ms, 25ms)")
+      ->each([&](const std::string&) { a.mask_window_set = true; });
+  cmd->add_option("--boxes", a.boxes, "Kalman-tracked object boxes, CSV t_us,id,x0,y0,x1,y1,vx,vy");
+  cmd->add_flag("--stats", a.stats,
+                "Print per-layer spikes and SynOps, events/s, real-time factor");
+  cmd->add_flag("--quiet", a.quiet, "No progress bar");
+  cmd->add_option("--threads", a.threads, "Worker threads (the runtime currently uses one)")
+      ->check(CLI::Range(1, 256));
+  cmd->add_option("--time-step-us", a.step_us, "Simulation step (default: the model's)")
+      ->check(CLI::Range(int64_t(1), int64_t(1000000)));
+  cmd->add_option("--label-tolerance", a.tolerance,
+                  "Steps added to the network latency in the labelling window (default 3)")
+      ->check(CLI::Range(0, 1000));
+  cli::add_read_flags(cmd, a.read);
+  cmd->callback([] { run(a); });
+}
+
+}  // namespace
+
+SPIKEMS_COMMAND(segment, 40, add);

@@ -1,0 +1,50 @@
+// Per-event foreground/background labels from the network's output spikes.
+//
+// Rule (docs/runtime.md): an input event at sensor pixel (x, y) that fell in step t is
+// foreground when the output layer spikes (either channel) at the matching output pixel in
+// steps t .. t + window, window = latency (one step per layer) + tolerance. Output pixel
+// (y, x) matches sensor pixel (y, x) (top-left aligned); sensor pixels beyond a smaller output
+// (the authors' unpadded network) take the nearest output pixel (coordinates clamped).
+// An event's label is decided exactly `window` steps after its own step, so labels trail the
+// input by window steps and the queue of undecided events stays bounded.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <vector>
+
+#include "core/events/event_stream.h"
+
+namespace spikems {
+
+class EventLabeller {
+ public:
+  EventLabeller(SensorSize sensor, int out_height, int out_width, int out_channels,
+                int window_steps);
+  // Queues an event of step `step` (steps never decrease).
+  void push(const Event& e, int64_t step);
+  // Records the output spikes of step `step`, then appends to `out` (with labels 1 =
+  // foreground, 0 = background) every queued event whose window ended at `step`.
+  void on_step(int64_t step, const std::vector<uint32_t>& out_spikes, EventStream& out);
+  size_t pending() const { return queue_.size(); }
+  int window_steps() const { return window_; }
+  // Output pixel index of a sensor pixel.
+  uint32_t out_pixel(int x, int y) const {
+    int ox = x < ow_ ? x : ow_ - 1, oy = y < oh_ ? y : oh_ - 1;
+    return uint32_t(oy) * uint32_t(ow_) + uint32_t(ox);
+  }
+  uint64_t foreground_count() const { return fg_; }
+
+ private:
+  struct Pending {
+    Event e;
+    int64_t step;
+  };
+  SensorSize sensor_;
+  int oh_, ow_, oc_, window_;
+  std::vector<int64_t> last_spike_;  // per output pixel
+  std::deque<Pending> queue_;
+  uint64_t fg_ = 0;
+};
+
+}  // namespace spikems

@@ -1,0 +1,100 @@
+#include "core/runtime/segmenter.h"
+
+#include <cmath>
+
+#include "core/util/error.h"
+
+namespace spikems {
+
+namespace {
+int64_t model_step_us(const ModelSpec& m, int64_t forced) {
+  if (forced > 0) return forced;
+  return std::max<int64_t>(1, std::llround(m.time_step_ms * 1000.0));
+}
+
+const ModelSpec& checked(const ModelSpec& m, SensorSize s, const std::string& src) {
+  if (!s.known()) fail(src, "", "the sensor size is unknown; give it with --width and --height");
+  if (m.input_width > 0 && m.input_height > 0 &&
+      (m.input_width != s.width || m.input_height != s.height))
+    fail(src, "",
+         "the model '" + m.name + "' was made for a " + std::to_string(m.input_width) + "x" +
+             std::to_string(m.input_height) + " sensor but the events come from a " +
+             std::to_string(s.width) + "x" + std::to_string(s.height) +
+             " sensor; use a model for this sensor (or crop/resize the events first)");
+  return m;
+}
+}  // namespace
+
+Segmenter::Segmenter(const ModelSpec& m, SensorSize sensor, SegmenterOptions opt,
+                     std::string source)
+    : source_(std::move(source)),
+      sensor_(sensor),
+      step_us_(model_step_us(m, opt.step_us)),
+      opt_(opt),
+      net_(checked(m, sensor, source_), sensor.height, sensor.width),
+      labeller_(sensor, net_.out_height(), net_.out_width(), net_.out_channels(),
+                net_.latency_steps() + std::max(0, opt.label_tolerance_steps)) {
+  input_stamp_.assign(size_t(sensor.width) * sensor.height * 2, -1);
+  labelled_.sensor = sensor;
+  labelled_.add_zero_labels();
+}
+
+void Segmenter::run_step() {
+  auto t0 = std::chrono::steady_clock::now();
+  const auto& out = net_.step(input_);
+  net_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const int64_t s = cur_step_;
+  if (masks_) masks_->add_spikes(origin_ + s * step_us_, out);
+  labeller_.on_step(s, out, labelled_);
+  input_.clear();
+  ++cur_step_;
+  if (masks_) masks_->close_until(origin_ + cur_step_ * step_us_, frames_);
+}
+
+void Segmenter::push(const EventStream& c) {
+  if (finished_) fail(source_, "", "events pushed after the end of the stream");
+  for (size_t i = 0; i < c.size(); ++i) {
+    const uint64_t idx = events_in_ + i;
+    const int64_t t = c.t[i];
+    if (c.x[i] >= sensor_.width || c.y[i] >= sensor_.height)
+      fail_at_event(source_, idx,
+                    "pixel (" + std::to_string(c.x[i]) + ", " + std::to_string(c.y[i]) +
+                        ") is outside the " + std::to_string(sensor_.width) + "x" +
+                        std::to_string(sensor_.height) + " sensor");
+    if (c.p[i] > 1) fail_at_event(source_, idx, "polarity must be 0 or 1");
+    if (!started_) {
+      started_ = true;
+      origin_ = last_t_ = t;
+      if (opt_.mask_window_us > 0)
+        masks_.emplace(sensor_, net_.out_height(), net_.out_width(), net_.out_channels(), origin_,
+                       opt_.mask_window_us);
+    }
+    if (t < last_t_)
+      fail_at_event(source_, idx,
+                    "time goes back from " + std::to_string(last_t_) + " us to " +
+                        std::to_string(t) + " us; sort the stream first (e.g. --sort)");
+    last_t_ = t;
+    const int64_t step = (t - origin_) / step_us_;
+    while (cur_step_ < step) run_step();
+    const uint32_t n = (uint32_t(c.y[i]) * uint32_t(sensor_.width) + c.x[i]) * 2u + c.p[i];
+    if (input_stamp_[n] != step) {
+      input_stamp_[n] = step;
+      input_.push_back(n);
+    }
+    labeller_.push(c[i], step);
+    if (masks_) masks_->add_event(t, c.x[i], c.y[i]);
+  }
+  events_in_ += c.size();
+}
+
+void Segmenter::finish() {
+  if (finished_) return;
+  finished_ = true;
+  if (!started_) return;
+  // The current step, then enough empty steps to decide every queued event.
+  const int64_t end = cur_step_ + labeller_.window_steps();
+  while (cur_step_ <= end) run_step();
+  if (masks_) masks_->flush(frames_);
+}
+
+}  // namespace spikems

@@ -1,0 +1,74 @@
+// The streaming segmentation pipeline: time-ordered event chunks in, per-event labels and
+// mask frames out, in bounded memory whatever the stream's length.
+//
+// Binning (BRIEF.md section 4): step k covers [origin + k*step, origin + (k+1)*step), origin =
+// the first event's time; all events of one polarity at one pixel within a step are one input
+// spike (channel = polarity, 0 OFF, 1 ON). Each completed step advances the network once;
+// silent stretches advance it with empty steps (cheap: idle neurons are never touched).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "core/events/event_stream.h"
+#include "core/model/model_file.h"
+#include "core/runtime/event_labeller.h"
+#include "core/runtime/mask_accumulator.h"
+#include "core/runtime/streaming_network.h"
+
+namespace spikems {
+
+struct SegmenterOptions {
+  int64_t step_us = 0;            // 0: the model's time step
+  int label_tolerance_steps = 3;  // label window = latency (layers) + this
+  int64_t mask_window_us = 0;     // 0: no mask frames
+};
+
+class Segmenter {
+ public:
+  // Throws Error when the model does not fit the sensor (size fixed by the model, a network
+  // too deep for the sensor, unsupported layer features).
+  Segmenter(const ModelSpec& model, SensorSize sensor, SegmenterOptions opt,
+            std::string source = "input");
+  // A chunk of events in time order (continuing the previous chunks). Throws Error, naming the
+  // event's index in the whole stream, for an event outside the sensor, a bad polarity, or a
+  // timestamp earlier than the previous one.
+  void push(const EventStream& chunk);
+  // End of stream: completes the last step, runs the label window out, closes the last frame.
+  void finish();
+
+  // Labelled events decided so far (take and clear them as you go), input order.
+  EventStream& labelled() { return labelled_; }
+  std::vector<PredictionFrame>& frames() { return frames_; }
+
+  const StreamingNetwork& network() const { return net_; }
+  uint64_t events_in() const { return events_in_; }
+  int64_t steps() const { return net_.steps_done(); }
+  int64_t step_us() const { return step_us_; }
+  int label_window_steps() const { return labeller_.window_steps(); }
+  uint64_t foreground_events() const { return labeller_.foreground_count(); }
+  double network_seconds() const { return net_seconds_; }  // wall time inside the network
+
+ private:
+  void run_step();  // the current step's input through the network
+  std::string source_;
+  SensorSize sensor_;
+  int64_t step_us_;
+  SegmenterOptions opt_;
+  StreamingNetwork net_;
+  EventLabeller labeller_;
+  std::optional<MaskAccumulator> masks_;
+  bool started_ = false, finished_ = false;
+  int64_t origin_ = 0, last_t_ = 0, cur_step_ = 0;
+  uint64_t events_in_ = 0;
+  std::vector<uint32_t> input_;       // this step's input spikes
+  std::vector<int64_t> input_stamp_;  // per input neuron: last step it spiked
+  EventStream labelled_;
+  std::vector<PredictionFrame> frames_;
+  double net_seconds_ = 0;
+};
+
+}  // namespace spikems

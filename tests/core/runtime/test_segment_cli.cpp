@@ -1,0 +1,164 @@
+// `spikems segment` through the command line: outputs, live stdin, bad input.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "common/test_paths.h"
+#include "core/model/model_file.h"
+
+namespace spikems {
+namespace {
+
+using test::run_command;
+using test::scratch_dir;
+using test::spikems_binary;
+
+// A 1x1 conv passing OFF events (channel 0) through to output channel 0; ON events reach a
+// zero weight. Every OFF event is foreground, every ON event background.
+std::string write_pass_off_model(const std::string& dir, int w = 0, int h = 0) {
+  ModelSpec m;
+  m.input_width = w;
+  m.input_height = h;
+  LayerSpec l;
+  l.in_channels = 2;
+  l.out_channels = 2;
+  l.kernel = 1;
+  l.stride = 1;
+  l.weight = {1.f, 0.f, 0.f, 0.f};
+  m.layers = {l};
+  fill_fir_kernels(m);
+  std::string p = dir + "/pass_off.safetensors";
+  save_model(p, m);
+  return p;
+}
+
+// A 6x6 square moving right 1 px per ms over a 64x48 sensor, OFF on its left edge, ON right.
+std::string write_events(const std::string& dir, bool backwards = false) {
+  std::string p = dir + "/events.txt";
+  std::ofstream f(p);
+  f << "# sensor 64 48\n";
+  for (int t = 0; t < 40; ++t)
+    for (int p = 0; p < 2; ++p)
+      for (int y = 20; y < 26; ++y)
+        f << t * 1000 + 100 + 100 * p << " " << 10 + 6 * p + t << " " << y << " " << p << "\n";
+  if (backwards) f << "5 3 3 1\n";
+  return p;
+}
+
+std::vector<std::vector<long>> read_rows(const std::string& path) {
+  std::ifstream f(path);
+  std::string line;
+  std::vector<std::vector<long>> rows;
+  while (std::getline(f, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream s(line);
+    std::vector<long> r;
+    long v;
+    while (s >> v) r.push_back(v);
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+TEST(SegmentCli, LabelsMasksBoxesAndStats) {
+  std::string d = scratch_dir();
+  std::string model = write_pass_off_model(d), ev = write_events(d);
+  std::string out;
+  int rc = run_command(spikems_binary() + " segment --quiet --model " + model + " --input " + ev +
+                           " --out " + d + "/labels.txt --masks-dir " + d +
+                           "/masks --mask-window 10ms --boxes " + d + "/boxes.csv --stats",
+                       &out);
+  ASSERT_EQ(rc, 0) << out;
+  auto rows = read_rows(d + "/labels.txt");
+  ASSERT_EQ(rows.size(), 480u);
+  for (const auto& r : rows) {
+    ASSERT_EQ(r.size(), 5u);
+    EXPECT_EQ(r[4], r[3] == 0 ? 1 : 0) << "t=" << r[0] << " p=" << r[3];
+  }
+  EXPECT_EQ(rows[0][0], 100);  // input order and times kept
+  // 40 ms of events in 10 ms windows, plus the label window's run-out (< 1 window).
+  int pngs = 0;
+  for (auto& e : std::filesystem::directory_iterator(d + "/masks"))
+    pngs += e.path().extension() == ".png";
+  EXPECT_GE(pngs, 4);
+  EXPECT_LE(pngs, 5);
+  // The OFF edge is one tracked object moving right at about 1000 px/s.
+  auto text = [&] {
+    std::ifstream f(d + "/boxes.csv");
+    std::stringstream s;
+    s << f.rdbuf();
+    return s.str();
+  }();
+  EXPECT_EQ(text.rfind("t_us,id,x0,y0,x1,y1,vx,vy\n", 0), 0u);
+  int lines = 0;
+  double vx = 0;
+  std::istringstream s(text);
+  std::string line;
+  std::getline(s, line);
+  while (std::getline(s, line)) {
+    ++lines;
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream ls(line);
+    double t, id, x0, y0, x1, y1, vy;
+    ls >> t >> id >> x0 >> y0 >> x1 >> y1 >> vx >> vy;
+    EXPECT_EQ(id, 1);
+  }
+  EXPECT_GE(lines, 2);
+  EXPECT_NEAR(vx, 1000, 250);
+  EXPECT_NE(out.find("SynOps"), std::string::npos);
+  EXPECT_NE(out.find("real-time factor"), std::string::npos);
+}
+
+TEST(SegmentCli, LiveStdinToStdout) {
+  std::string d = scratch_dir();
+  std::string model = write_pass_off_model(d);
+  std::string out;
+  int rc =
+      run_command("printf '1000 3 4 0\\n1500 5 5 1\\n9000 7 7 0\\n' | " + spikems_binary() +
+                      " segment --model " + model + " --input - --width 16 --height 12 --out -",
+                  &out);
+  ASSERT_EQ(rc, 0) << out;
+  EXPECT_NE(out.find("1000 3 4 0 1\n"), std::string::npos) << out;
+  EXPECT_NE(out.find("1500 5 5 1 0\n"), std::string::npos) << out;
+  EXPECT_NE(out.find("9000 7 7 0 1\n"), std::string::npos) << out;
+}
+
+TEST(SegmentCli, BadInputFailsWithAClearMessage) {
+  std::string d = scratch_dir();
+  std::string model = write_pass_off_model(d);
+  std::string out;
+  // Time going back.
+  std::string back = write_events(d, true);
+  EXPECT_NE(run_command(spikems_binary() + " segment --quiet --model " + model + " --input " +
+                            back + " --out " + d + "/l.txt",
+                        &out),
+            0);
+  EXPECT_NE(out.find("time"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(d + "/l.txt"));  // no half-written output
+  // A model made for another sensor.
+  std::string ev = write_events(d);
+  std::string other = write_pass_off_model(d, 346, 260);
+  EXPECT_NE(run_command(spikems_binary() + " segment --model " + other + " --input " + ev, &out),
+            0);
+  EXPECT_NE(out.find("346x260"), std::string::npos) << out;
+  // A corrupt model file.
+  std::ofstream(d + "/bad.safetensors") << "not a model";
+  EXPECT_NE(
+      run_command(spikems_binary() + " segment --model " + d + "/bad.safetensors --input " + ev,
+                  &out),
+      0);
+  EXPECT_NE(out.find("bad.safetensors"), std::string::npos) << out;
+  // A network too deep for the sensor.
+  ModelSpec deep = spikems_architecture(false);
+  save_model(d + "/deep.safetensors", deep);
+  EXPECT_NE(run_command("printf '1 1 1 1\\n' | " + spikems_binary() + " segment --model " + d +
+                            "/deep.safetensors --input - --width 8 --height 8",
+                        &out),
+            0);
+  EXPECT_NE(out.find("too small"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace spikems
