@@ -25,7 +25,7 @@ height = 260
 
 [time]
 duration_s = 2.0
-dt_min_us = 100
+dt_min_us = 200
 dt_max_us = 1000
 max_dlog_fraction = 0.3333
 max_displacement_px = 0.5
@@ -87,7 +87,7 @@ height = 260
 
 [time]
 duration_s = 2.0
-dt_min_us = 100
+dt_min_us = 200
 dt_max_us = 1000
 max_dlog_fraction = 0.3333
 max_displacement_px = 0.5
@@ -149,7 +149,7 @@ height = 260
 
 [time]
 duration_s = 1.0
-dt_min_us = 100
+dt_min_us = 200
 dt_max_us = 1000
 max_dlog_fraction = 0.3333
 max_displacement_px = 0.5

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/sim/fast_math.h"
 #include "core/sim/parallel.h"
 
 namespace spikems::sim {
@@ -94,7 +95,7 @@ inline float intersect(const Prepared& p, const V3& d) {
         return in_outline(p.s->outline, px, py, h.x, h.y) ? t : kFar;
       if (std::fabs(px) > h.x || std::fabs(py) > h.y) return kFar;
       const float sp = float(p.s->net_spacing), bar = float(p.s->net_bar);
-      float mx = px / sp - std::floor(px / sp), my = py / sp - std::floor(py / sp);
+      float mx = px / sp - fast_floor(px / sp), my = py / sp - fast_floor(py / sp);
       return (mx * sp < bar || my * sp < bar) ? t : kFar;
     }
     case ShapeKind::Room: {
@@ -281,7 +282,7 @@ void Renderer::render(double t_s, Frame& out, int threads) const {
           I = shade(scene_, prep[size_t(bi)], dc, best, fx);
           id = prep[size_t(bi)].s->id;
         }
-        out.log_intensity[i] = std::log(log_eps_ + I);
+        out.log_intensity[i] = fast_log(log_eps_ + I);
         out.id[i] = id;
         out.depth[i] = bi >= 0 ? best : 0.f;
         out.surface[i] = bi >= 0 ? uint8_t(std::min<size_t>(prep_index[size_t(bi)] + 1, 255)) : 0;

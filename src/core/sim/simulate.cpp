@@ -274,7 +274,12 @@ DatasetSummary simulate_dataset(const SimConfig& cfg, const DatasetOptions& opt)
         if (cancel.load()) break;
         char name[32];
         std::snprintf(name, sizeof name, "seq_%04d.h5", i);
-        write_recording((fs::path(opt.out_dir) / name).string(), rec, {}, opt.format);
+        {
+          // The HDF5 C library (serial build) is not thread-safe: one writer at a time.
+          static std::mutex write_mu;
+          std::lock_guard<std::mutex> lk(write_mu);
+          write_recording((fs::path(opt.out_dir) / name).string(), rec, {}, opt.format);
+        }
         nlohmann::json e;
         e["file"] = name;
         e["index"] = i;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <random>
 
+#include "core/sim/fast_math.h"
 #include "core/util/error.h"
 
 namespace spikems::sim {
@@ -180,7 +181,7 @@ float Texture::bilinear(int level, float u, float v) const {
   const int s = kTile >> level;
   const auto& m = mips_[size_t(level)];
   float x = u * s - 0.5f, y = v * s - 0.5f;
-  float fx0 = std::floor(x), fy0 = std::floor(y);
+  float fx0 = fast_floor(x), fy0 = fast_floor(y);
   float ax = x - fx0, ay = y - fy0;
   // Wrap (periodic); coordinates may be far from [0,1).
   int x0 = int(int64_t(fx0) & (s - 1)), y0 = int(int64_t(fy0) & (s - 1));
@@ -191,10 +192,10 @@ float Texture::bilinear(int level, float u, float v) const {
 }
 
 float Texture::sample(float u, float v, float footprint) const {
-  if (!std::isfinite(u) || !std::isfinite(v)) return mips_.back()[0];
-  u -= std::floor(u);
-  v -= std::floor(v);
-  float lod = std::log2(std::max(footprint * kTile, 1e-6f));
+  if (!(std::fabs(u) < 1e6f && std::fabs(v) < 1e6f)) return mips_.back()[0];  // also NaN
+  u -= fast_floor(u);
+  v -= fast_floor(v);
+  float lod = fast_log2(std::max(footprint * kTile, 1e-6f));
   const int last = levels() - 1;
   if (lod <= 0) return bilinear(0, u, v);
   if (lod >= last) return mips_.back()[0];

@@ -1,0 +1,88 @@
+// Simulator throughput: wall seconds per simulated second of the `mod` preset and events per
+// second, adaptive steps against the fixed-step baseline (every step = dt_min) in the same
+// program, plus the cost of one rendered frame. Run:
+//   build/bench_sim --benchmark_counters_tabular=true
+// Figures: docs/perf-sim.md.
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <thread>
+#include <vector>
+
+#include "core/sim/presets.h"
+#include "core/sim/renderer.h"
+#include "core/sim/simulate.h"
+
+using namespace spikems::sim;
+
+namespace {
+
+// Simulates two 0.5 s sequences of the mod preset on `workers` threads (each sequence on one
+// thread, as `spikems simulate --threads 2` does); reports per simulated second.
+void run_sequences(benchmark::State& state, bool fixed, int workers) {
+  SimConfig cfg = preset_config("mod");
+  cfg.duration_us = 500000;
+  double wall = 0, sim = 0, events = 0, frames = 0;
+  for (auto _ : state) {
+    std::vector<SimStats> st(2);
+    std::vector<size_t> ev(2);
+    auto one = [&](int seq) {
+      SimulateOptions o;
+      o.fixed_step = fixed;
+      o.keep_masks = false;
+      auto rec = simulate_sequence(cfg, sequence_seed(2026, seq), o, &st[size_t(seq)]);
+      ev[size_t(seq)] = rec.events.size();
+    };
+    auto t0 = std::chrono::steady_clock::now();
+    if (workers >= 2) {
+      std::thread a(one, 0), b(one, 1);
+      a.join();
+      b.join();
+    } else {
+      one(0);
+      one(1);
+    }
+    wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    for (int k = 0; k < 2; ++k) {
+      sim += double(st[size_t(k)].simulated_us) * 1e-6;
+      events += double(ev[size_t(k)]);
+      frames += double(st[size_t(k)].frames_rendered);
+    }
+  }
+  state.counters["wall_s_per_sim_s"] = wall / sim;
+  state.counters["Mevents_per_wall_s"] = events / wall * 1e-6;
+  state.counters["Mevents_per_sim_s"] = events / sim * 1e-6;
+  state.counters["frames_per_sim_s"] = frames / sim;
+}
+
+void BM_ModAdaptive(benchmark::State& s) {
+  run_sequences(s, false, int(s.range(0)));
+}
+void BM_ModFixedStep(benchmark::State& s) {
+  run_sequences(s, true, int(s.range(0)));
+}
+
+void BM_RenderFrame(benchmark::State& state) {
+  SimConfig cfg = preset_config("mod");
+  std::mt19937_64 rng(sequence_seed(2026, 0));
+  Camera cam = camera_from_config(cfg);
+  Scene scene = make_random_scene(cfg, cam, rng);
+  Renderer r(scene, cam, cfg.log_eps);
+  Frame f;
+  double t = 0;
+  for (auto _ : state) {
+    r.render(t, f, int(state.range(0)));
+    t += 1e-4;
+    benchmark::DoNotOptimize(f.log_intensity.data());
+  }
+  state.counters["Mpixels_per_s"] = benchmark::Counter(
+      double(cam.width) * cam.height * 1e-6, benchmark::Counter::kIsIterationInvariantRate);
+}
+
+}  // namespace
+
+BENCHMARK(BM_ModAdaptive)->Arg(2)->Arg(1)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+BENCHMARK(BM_ModFixedStep)->Arg(2)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+BENCHMARK(BM_RenderFrame)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+BENCHMARK_MAIN();
