@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "common/test_paths.h"
+#include "core/events/formats/npy.h"
 #include "core/events/io.h"
 #include "core/viz/event_frame.h"
 #include "core/viz/image.h"
@@ -205,6 +206,7 @@ TEST(CliInfoConvertRender, ConvertRoundTripTextToEveryWritableFormat) {
   ro.time_unit = "us";
   auto a = read_events(txt, ro);
   int tried = 0;
+  std::string names;
   for (const auto& f : formats()) {
     if (!f.open_writer || f.extensions.empty()) continue;
     std::string mid = dir + "/mid" + f.extensions.front();
@@ -218,6 +220,7 @@ TEST(CliInfoConvertRender, ConvertRoundTripTextToEveryWritableFormat) {
       continue;
     }
     ++tried;
+    names += " " + f.name;
     auto b = read_events(mid);
     ASSERT_EQ(b.size(), a.size()) << f.name;
     EXPECT_EQ(b.x, a.x) << f.name;
@@ -226,6 +229,7 @@ TEST(CliInfoConvertRender, ConvertRoundTripTextToEveryWritableFormat) {
     for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(b.t[i] - b.t[0], a.t[i] - a.t[0]) << f.name;
   }
   EXPECT_GE(tried, 1);
+  std::printf("[ round-tripped through:%s ]\n", names.c_str());
 }
 
 TEST(CliInfoConvertRender, RenderDrawsEventsWhereTheyAre) {
@@ -265,5 +269,63 @@ TEST(CliInfoConvertRender, RenderDrawsEventsWhereTheyAre) {
       << out;
   img = read_png_rgb(png);
   EXPECT_TRUE(is(5, 4, label_color(3)));
+  EXPECT_TRUE(is(1, 1, kOnColor));
+}
+
+// An EV-IMO npz with one mask frame: info counts it, render outlines it and derives labels.
+TEST(CliInfoConvertRender, RenderOutlinesTheMaskFrameOfAnEvimoFile) {
+  REQUIRE_FORMAT("evimo1");
+  std::string dir = test::scratch_dir();
+  // Events [t s, x, y, p]: ON (1,1), ON (5,4) inside the object, OFF (2,1).
+  std::vector<float> events{0.001f, 1, 1, 1, 0.002f, 5, 4, 1, 0.003f, 2, 1, 0};
+  // One 8x6 mask frame: object 2 (stored as 2000) on the 3x3 square x 4..6, y 3..5.
+  std::vector<uint16_t> mask(6 * 8, 0);
+  for (int y = 3; y <= 5; ++y)
+    for (int x = 4; x <= 6; ++x) mask[size_t(y * 8 + x)] = 2000;
+  std::vector<double> K{100, 0, 4, 0, 100, 3, 0, 0, 1};
+  std::string npz = dir + "/seq.npz";
+  write_npz(npz,
+            {{"events", NpyArray::from(events, {3, 4})},
+             {"mask", NpyArray::from(mask, {1, 6, 8})},
+             {"K", NpyArray::from(K, {3, 3})}},
+            false);
+  std::string out;
+  ASSERT_EQ(run_command(spikems_binary() + " info --json " + q(npz) + " 2>/dev/null", &out), 0)
+      << out;
+  auto j = nlohmann::json::parse(out)[0];
+  EXPECT_EQ(j["format"], "evimo1");
+  EXPECT_EQ(j["mask_frames"], 1);
+  EXPECT_EQ(j["width"], 8);
+  EXPECT_EQ(j["events"], 3);
+  EXPECT_DOUBLE_EQ(j["intrinsics"]["fx"].get<double>(), 100.0);
+
+  std::string png = dir + "/f.png";
+  ASSERT_EQ(
+      run_command(spikems_binary() + " render " + q(npz) + " --from 0 --window 5ms --out " + q(png),
+                  &out),
+      0)
+      << out;
+  EXPECT_NE(out.find("mask frame"), std::string::npos) << out;
+  Image img = read_png_rgb(png);
+  auto is = [&](int x, int y, Rgb c) { return img.is(x, y, c.r, c.g, c.b); };
+  EXPECT_TRUE(is(1, 1, kOnColor));
+  EXPECT_TRUE(is(2, 1, kOffColor));
+  EXPECT_TRUE(is(5, 4, kOnColor));  // the square's centre is not on the contour
+  for (auto [x, y] : {std::pair{4, 3}, {5, 3}, {6, 3}, {4, 4}, {6, 4}, {4, 5}, {6, 5}})
+    EXPECT_TRUE(is(x, y, kOutlineColor)) << x << "," << y;
+  // (5,5) lies on the sensor's bottom edge with region pixels left and right: the image border
+  // is not a region border, so it is not outlined.
+  EXPECT_TRUE(is(5, 5, kBackground));
+  EXPECT_TRUE(is(3, 3, kBackground));
+  EXPECT_TRUE(is(7, 4, kBackground));
+
+  // --labels: the event inside the object takes object 2's colour (labels from the mask).
+  ASSERT_EQ(run_command(spikems_binary() + " render " + q(npz) +
+                            " --from 0 --window 5ms --labels --out " + q(png),
+                        &out),
+            0)
+      << out;
+  img = read_png_rgb(png);
+  EXPECT_TRUE(is(5, 4, label_color(2)));
   EXPECT_TRUE(is(1, 1, kOnColor));
 }
