@@ -4,6 +4,7 @@
 
 #include "core/events/formats/text.h"
 #include "core/util/byte_source.h"
+#include "core/util/error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {

@@ -1,6 +1,7 @@
 // NumPy .npy/.npz: round trips, hand-made headers (byte order, Fortran order, pickles), bad
 // input, and real files written by numpy (the SpikeMS reference and an EV-IMO sample).
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <cmath>
 #include <filesystem>
@@ -251,6 +252,99 @@ TEST(Npz, LazyFileSkipsMembersItCannotDecode) {
   EXPECT_NE(e.find("pickled"), std::string::npos) << e;
   EXPECT_THROW(read_npz(dir + "/evimo.npz"), Error);
   EXPECT_NE(error_of([&] { npz.get("nope"); }).find("events, meta"), std::string::npos);
+}
+
+// A ZIP64 archive as numpy writes for large arrays: 0xFFFFFFFF in the fixed size and offset
+// fields, the real values in ZIP64 extra fields, and ZIP64 end records.
+TEST(Npz, Zip64RecordsAndExtraFields) {
+  auto npy = serialize_npy(NpyArray::from(std::vector<int32_t>{4, 5, 6}, {3}));
+  const std::string name = "arr.npy";
+  std::vector<uint8_t> z;
+  auto u16 = [&](uint16_t v) {
+    z.push_back(uint8_t(v));
+    z.push_back(uint8_t(v >> 8));
+  };
+  auto u32 = [&](uint32_t v) {
+    u16(uint16_t(v));
+    u16(uint16_t(v >> 16));
+  };
+  auto u64 = [&](uint64_t v) {
+    u32(uint32_t(v));
+    u32(uint32_t(v >> 32));
+  };
+  uLong crc = crc32(0L, npy.data(), uInt(npy.size()));
+  // Local header with placeholder sizes (as Python's zipfile writes with force_zip64).
+  u32(0x04034b50);
+  u16(45);
+  u16(0);
+  u16(0);
+  u16(0);
+  u16(0x21);
+  u32(uint32_t(crc));
+  u32(0xFFFFFFFF);
+  u32(0xFFFFFFFF);
+  u16(uint16_t(name.size()));
+  u16(20);
+  z.insert(z.end(), name.begin(), name.end());
+  u16(1);
+  u16(16);
+  u64(0);
+  u64(0);
+  z.insert(z.end(), npy.begin(), npy.end());
+  const uint64_t cd = z.size();
+  u32(0x02014b50);
+  u16(45);
+  u16(45);
+  u16(0);
+  u16(0);
+  u16(0);
+  u16(0x21);
+  u32(uint32_t(crc));
+  u32(0xFFFFFFFF);
+  u32(0xFFFFFFFF);
+  u16(uint16_t(name.size()));
+  u16(28);
+  u16(0);
+  u16(0);
+  u16(0);
+  u32(0);
+  u32(0xFFFFFFFF);
+  z.insert(z.end(), name.begin(), name.end());
+  u16(1);
+  u16(24);
+  u64(npy.size());
+  u64(npy.size());
+  u64(0);
+  const uint64_t cd_size = z.size() - cd, z64 = z.size();
+  u32(0x06064b50);
+  u64(44);
+  u16(45);
+  u16(45);
+  u32(0);
+  u32(0);
+  u64(1);
+  u64(1);
+  u64(cd_size);
+  u64(cd);
+  u32(0x07064b50);
+  u32(0);
+  u64(z64);
+  u32(1);
+  u32(0x06054b50);
+  u16(0);
+  u16(0);
+  u16(0xFFFF);
+  u16(0xFFFF);
+  u32(0xFFFFFFFF);
+  u32(0xFFFFFFFF);
+  u16(0);
+  auto m = parse_npz(z.data(), z.size(), "z64.npz");
+  ASSERT_EQ(m.count("arr"), 1u);
+  EXPECT_EQ(m["arr"].to<int>(), (std::vector<int>{4, 5, 6}));
+  // A ZIP64 end record pointing outside the file is an error, not a crash.
+  auto bad = z;
+  bad[bad.size() - 22 - 20 + 8] = 0xEE;
+  EXPECT_THROW(parse_npz(bad.data(), bad.size(), "bad.npz"), Error);
 }
 
 // Real archives written by numpy (np.savez_compressed): values from the reference README.

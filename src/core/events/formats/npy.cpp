@@ -163,7 +163,11 @@ std::vector<uint8_t> fortran_to_c(const std::vector<uint8_t>& in, const std::vec
 
 }  // namespace
 
-NpyArray parse_npy(const uint8_t* data, size_t n, const std::string& source) {
+namespace {
+// Parses and validates everything; the payload goes to `owned` (moved, its header erased)
+// when given, else it is copied from data.
+NpyArray parse_npy_impl(const uint8_t* data, size_t n, const std::string& source,
+                        std::vector<uint8_t>* owned) {
   if (n < 10 || std::memcmp(data, kMagic, 6) != 0)
     fail_at_byte(source, 0, "not a NumPy .npy array: wrong magic bytes");
   const int major = data[6];
@@ -252,13 +256,23 @@ NpyArray parse_npy(const uint8_t* data, size_t n, const std::string& source) {
     fail_at_byte(source, hstart + hlen,
                  "shape needs " + std::to_string(bytes) + " data bytes but the file holds " +
                      std::to_string(payload) + (bytes > payload ? " (truncated?)" : ""));
-  a.data.assign(data + hstart + hlen, data + n);
+  if (owned) {
+    owned->erase(owned->begin(), owned->begin() + int64_t(hstart + hlen));
+    a.data = std::move(*owned);
+  } else {
+    a.data.assign(data + hstart + hlen, data + n);
+  }
   if (big) byteswap(a.data, size_t(swap_unit));
   if (a.fortran_order) {
     if (a.shape.size() > 1) a.data = fortran_to_c(a.data, a.shape, size_t(size));
     a.fortran_order = false;
   }
   return a;
+}
+}  // namespace
+
+NpyArray parse_npy(const uint8_t* data, size_t n, const std::string& source) {
+  return parse_npy_impl(data, n, source, nullptr);
 }
 
 NpyArray read_npy(const std::string& path) {
@@ -334,7 +348,7 @@ NpyArray NpzFile::get(const std::string& key) const {
     fail(source_, "", "npz archive has no array '" + key + "' (it has: " + known + ")");
   }
   auto raw = zip_extract(bytes_.data(), bytes_.size(), it->second, source_);
-  return parse_npy(raw.data(), raw.size(), source_ + ":" + key);
+  return parse_npy_impl(raw.data(), raw.size(), source_ + ":" + key, &raw);
 }
 
 std::map<std::string, NpyArray> parse_npz(const uint8_t* data, size_t n,

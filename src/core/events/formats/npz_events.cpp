@@ -8,6 +8,7 @@
 // chunks; the writer gathers the chunks and writes the archive on close.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "core/events/formats/memory_reader.h"
 #include "core/events/formats/npy.h"
@@ -17,13 +18,39 @@ namespace spikems {
 
 namespace {
 
-template <typename T>
-std::vector<T> column(const NpzFile& z, const std::string& key, size_t n) {
+NpyArray column_array(const NpzFile& z, const std::string& key, size_t n) {
   NpyArray a = z.get(key);
   if (a.shape.size() != 1 || size_t(a.shape[0]) != n)
     fail(z.source(), "array '" + key + "'",
          "expected shape (" + std::to_string(n) + ",), the length of 't'");
-  return a.to<T>();
+  return a;
+}
+
+// Fills out with the column converted to T, every value checked to lie in [lo, hi]. The
+// common case (already of type T) is a copy and a range scan, without temporaries.
+template <typename T>
+void column(const NpzFile& z, const std::string& key, size_t n, int64_t lo, int64_t hi,
+            std::vector<T>& out, const char* what) {
+  NpyArray a = column_array(z, key, n);
+  out.resize(n);
+  if (a.descr == npy_descr_of<T>()) {
+    if (n) std::memcpy(out.data(), a.data.data(), n * sizeof(T));
+    for (size_t i = 0; i < n; ++i)
+      if (int64_t(out[i]) < lo || int64_t(out[i]) > hi)
+        fail_at_event(
+            z.source(), i,
+            std::string(what) + " = " + std::to_string(int64_t(out[i])) + " is out of range");
+    return;
+  }
+  if (a.descr[1] == 'f')
+    fail(z.source(), "array '" + key + "'", "expected integers, found " + a.descr);
+  auto v = a.to<int64_t>();
+  for (size_t i = 0; i < n; ++i) {
+    if (v[i] < lo || v[i] > hi)
+      fail_at_event(z.source(), i,
+                    std::string(what) + " = " + std::to_string(v[i]) + " is out of range");
+    out[i] = T(v[i]);
+  }
 }
 
 EventStream read_npz_events(const std::string& path, const ReadOptions& opt) {
@@ -35,46 +62,40 @@ EventStream read_npz_events(const std::string& path, const ReadOptions& opt) {
   if (ta.shape.size() != 1) fail(path, "array 't'", "expected a 1-D array");
   const size_t n = size_t(ta.shape[0]);
   EventStream ev;
-  ev.t.resize(n);
   const char kind = ta.descr[1];
   if (kind == 'f') {  // seconds
     auto ts = ta.to<double>();
+    ev.t.resize(n);
     for (size_t i = 0; i < n; ++i) {
       if (!std::isfinite(ts[i]) || std::fabs(ts[i]) > 9e12)
         fail_at_event(path, i, "timestamp is not a finite number of seconds");
       ev.t[i] = std::llround(ts[i] * 1e6);
     }
+  } else if (ta.descr == "<i8") {
+    ev.t.resize(n);
+    if (n) std::memcpy(ev.t.data(), ta.data.data(), n * 8);
   } else {
     ev.t = ta.to<int64_t>();
   }
-  auto coord = [&](const char* key, std::vector<uint16_t>& out) {
-    auto v = column<int64_t>(z, key, n);
-    out.resize(n);
+  column(z, "x", n, 0, 65535, ev.x, "x");
+  column(z, "y", n, 0, 65535, ev.y, "y");
+  // p: 0/1, -1/+1 or bool.
+  NpyArray pa = column_array(z, "p", n);
+  if (pa.descr == "|u1" || pa.descr == "|b1") {
+    ev.p.assign(pa.data.begin(), pa.data.end());
+    for (size_t i = 0; i < n; ++i)
+      if (ev.p[i] > 1)
+        fail_at_event(path, i, "polarity " + std::to_string(ev.p[i]) + " is not 0/1 or -1/+1");
+  } else {
+    auto p = pa.to<int64_t>();
+    ev.p.resize(n);
     for (size_t i = 0; i < n; ++i) {
-      if (v[i] < 0 || v[i] > 65535)
-        fail_at_event(
-            path, i,
-            std::string(key) + " = " + std::to_string(v[i]) + " is not a pixel coordinate");
-      out[i] = uint16_t(v[i]);
-    }
-  };
-  coord("x", ev.x);
-  coord("y", ev.y);
-  auto p = column<int64_t>(z, "p", n);
-  ev.p.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    if (p[i] != 0 && p[i] != 1 && p[i] != -1)
-      fail_at_event(path, i, "polarity " + std::to_string(p[i]) + " is not 0/1 or -1/+1");
-    ev.p[i] = p[i] > 0 ? 1 : 0;
-  }
-  if (z.has("label")) {
-    auto l = column<int64_t>(z, "label", n);
-    ev.label.resize(n);
-    for (size_t i = 0; i < n; ++i) {
-      if (l[i] < 0 || l[i] > 65535) fail_at_event(path, i, "label is not an object id (0..65535)");
-      ev.label[i] = uint16_t(l[i]);
+      if (p[i] != 0 && p[i] != 1 && p[i] != -1)
+        fail_at_event(path, i, "polarity " + std::to_string(p[i]) + " is not 0/1 or -1/+1");
+      ev.p[i] = p[i] > 0 ? 1 : 0;
     }
   }
+  if (z.has("label")) column(z, "label", n, 0, 65535, ev.label, "label");
   if (opt.sensor.known()) {
     ev.sensor = opt.sensor;
   } else if (z.has("sensor")) {
