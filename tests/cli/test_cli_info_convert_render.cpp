@@ -3,6 +3,7 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <tuple>
 
 #include "common/test_paths.h"
 #include "core/events/formats/npy.h"
@@ -298,6 +299,27 @@ TEST(CliInfoConvertRender, RenderOutlinesTheMaskFrameOfAnEvimoFile) {
   EXPECT_EQ(j["width"], 8);
   EXPECT_EQ(j["events"], 3);
   EXPECT_DOUBLE_EQ(j["intrinsics"]["fx"].get<double>(), 100.0);
+
+  // convert carries the mask frame and intrinsics into a format that holds them, and keeps
+  // only the mask frames of the selected range. The mask time is EV-IMO's uniform estimate
+  // (no meta.txt): t_first + duration / 2 = 2000 us.
+  if (find_format("spikems-h5")) {
+    for (auto [from, want_events, want_masks] :
+         {std::tuple{"0", 3, 1}, std::tuple{"1ms", 2, 1}, std::tuple{"1.5ms", 1, 0}}) {
+      std::string h5 = dir + "/seq.h5";
+      ASSERT_EQ(
+          run_command(spikems_binary() + " convert -q " + q(npz) + " " + q(h5) + " --from " + from,
+                      &out),
+          0)
+          << out;
+      ASSERT_EQ(run_command(spikems_binary() + " info --json " + q(h5) + " 2>/dev/null", &out), 0)
+          << out;
+      auto h = nlohmann::json::parse(out)[0];
+      EXPECT_EQ(h["events"], want_events) << from;
+      EXPECT_EQ(h["mask_frames"], want_masks) << from;
+      EXPECT_DOUBLE_EQ(h["intrinsics"]["cx"].get<double>(), 4.0);
+    }
+  }
 
   std::string png = dir + "/f.png";
   ASSERT_EQ(
