@@ -31,6 +31,10 @@ float EventGenerator::step(const float* L, const uint16_t* ids, int64_t t1, Even
   const int64_t t0 = t_us_;
   const double dt_s = double(t1 - t0) * 1e-6;
   const float leak = float(p_.leak_hz * p_.threshold * dt_s);  // reference drift this step
+  const float alpha =
+      p_.photoreceptor_cutoff_hz > 0
+          ? float(1 - std::exp(-dt_s * 2 * 3.141592653589793 * p_.photoreceptor_cutoff_hz))
+          : 1.f;
   const int64_t refr = p_.refractory_us;
   const int chunks = std::max(1, threads);
   std::vector<std::vector<Event>> part(static_cast<size_t>(chunks));
@@ -42,7 +46,7 @@ float EventGenerator::step(const float* L, const uint16_t* ids, int64_t t1, Even
     for (int y = y_begin; y < y_end; ++y) {
       for (int x = 0; x < w_; ++x) {
         const size_t i = size_t(y) * size_t(w_) + size_t(x);
-        const float L0 = last_L_[i], L1 = L[i];
+        const float L0 = last_L_[i], L1 = L0 + alpha * (L[i] - L0);
         mx = std::max(mx, std::fabs(L1 - L0));
         const float ref_end = ref_[i] - leak;
         const float a = L0 - ref_[i], b = L1 - ref_end;

@@ -5,6 +5,10 @@
 // at about leak_hz in a static scene); crossings within the refractory period after an
 // emitted event are dropped (the reference still moves, as the pixel resets).
 //
+// With photoreceptor_cutoff_hz > 0, L first passes a first-order low-pass filter (exact
+// exponential update per step, time constant 1 / (2 pi f_c)), which spreads the events of a
+// sharp edge over a few ms as the finite bandwidth of a real pixel does (v2e).
+//
 // Labels: the event takes the object id the pixel shows in the sample nearer to the crossing
 // time; when one of the two samples shows background (0) and the other an object, the object's
 // id (the change at a pixel that an object enters or leaves is caused by that object). Noise

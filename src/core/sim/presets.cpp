@@ -41,6 +41,7 @@ shot_hz = 0.001
 hot_pixel_fraction = 0.0
 hot_pixel_hz = 50.0
 log_eps = 0.01
+photoreceptor_cutoff_hz = 300.0
 
 [scene]
 background = "room"
@@ -49,7 +50,7 @@ room_height = [2.5, 4.0]
 room_depth = [5.0, 10.0]
 textures = ["noise", "stripes", "checkers", "grid", "blobs", "natural"]
 texture_frequency = [2.0, 10.0]
-log_contrast = [0.8, 2.5]
+log_contrast = [0.5, 1.8]
 texture_tile_m = [0.5, 2.0]
 illumination = [0.4, 1.0]
 ambient = [0.3, 0.7]
@@ -103,6 +104,7 @@ shot_hz = 0.001
 hot_pixel_fraction = 0.0001
 hot_pixel_hz = 20.0
 log_eps = 0.01
+photoreceptor_cutoff_hz = 300.0
 
 [scene]
 background = "room"
@@ -111,7 +113,7 @@ room_height = [2.5, 3.5]
 room_depth = [3.5, 6.0]
 textures = ["noise", "natural", "blobs", "stripes", "grid"]
 texture_frequency = [3.0, 12.0]
-log_contrast = [0.6, 2.0]
+log_contrast = [0.4, 1.5]
 texture_tile_m = [0.3, 1.2]
 illumination = [0.3, 0.9]
 ambient = [0.3, 0.6]
@@ -165,6 +167,7 @@ shot_hz = 0.001
 hot_pixel_fraction = 0.0
 hot_pixel_hz = 50.0
 log_eps = 0.01
+photoreceptor_cutoff_hz = 300.0
 
 [scene]
 background = "planes"
@@ -172,7 +175,7 @@ planes = 3
 plane_depth = [2.0, 8.0]
 textures = ["noise", "natural", "checkers", "stripes", "blobs"]
 texture_frequency = [2.0, 10.0]
-log_contrast = [0.8, 2.5]
+log_contrast = [0.5, 1.8]
 texture_tile_m = [0.5, 2.0]
 illumination = [0.4, 1.0]
 ambient = [0.3, 0.7]
@@ -227,6 +230,7 @@ shot_hz = 0.001
 hot_pixel_fraction = 0.0
 hot_pixel_hz = 50.0
 log_eps = 0.01
+photoreceptor_cutoff_hz = 300.0
 
 [scene]
 background = "room"

@@ -20,6 +20,7 @@ struct NoiseParams {
   double hot_pixel_fraction = 0;
   double hot_pixel_hz = 0;
   bool random_initial_reference = false;  // random reset state per pixel (real sensors)
+  double photoreceptor_cutoff_hz = 0;     // first-order low-pass on L (0: off)
 };
 
 // Per-pixel parameters drawn once per sequence.

@@ -157,6 +157,7 @@ SimConfig parse_sim_config(const std::string& text, const std::string& source) {
     s.num("hot_pixel_fraction", c.hot_pixel_fraction);
     s.num("hot_pixel_hz", c.hot_pixel_hz);
     s.num("log_eps", c.log_eps);
+    s.num("photoreceptor_cutoff_hz", c.photoreceptor_cutoff_hz);
     s.check_unknown();
   }
   {
@@ -231,6 +232,7 @@ void apply_noise_setting(SimConfig& c, const std::string& setting) {
   c.leak_hz = 0;
   c.shot_hz = 0;
   c.hot_pixel_fraction = 0;
+  c.photoreceptor_cutoff_hz = 0;
 }
 
 void validate_sim_config(const SimConfig& c, const std::string& src) {
@@ -255,6 +257,7 @@ void validate_sim_config(const SimConfig& c, const std::string& src) {
   need(c.hot_pixel_fraction >= 0 && c.hot_pixel_fraction <= 1, "[events] hot_pixel_fraction",
        "must be in [0, 1]");
   need(c.log_eps > 0, "[events] log_eps", "must be > 0");
+  need(c.photoreceptor_cutoff_hz >= 0, "[events] photoreceptor_cutoff_hz", "must be >= 0");
   need(c.background == "room" || c.background == "planes", "[scene] background",
        "use room or planes");
   need(c.planes >= 1 && c.planes <= 16, "[scene] planes", "must be in 1..16");

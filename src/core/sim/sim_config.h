@@ -36,7 +36,8 @@ struct SimConfig {
   double shot_hz = 0.001;         // per-pixel shot-noise rate (each polarity half)
   double hot_pixel_fraction = 0;  // share of pixels that fire ON events at hot_pixel_hz
   double hot_pixel_hz = 50;
-  double log_eps = 0.01;  // L = log(eps + I), I in [0, 1]
+  double log_eps = 0.01;               // L = log(eps + I), I in [0, 1]
+  double photoreceptor_cutoff_hz = 0;  // pixel bandwidth (first-order low-pass; 0 = off)
 
   // [scene]
   std::string background = "room";  // "room" (textured box) or "planes" (planes at depths)

@@ -118,6 +118,7 @@ NoiseParams noise_from_config(const SimConfig& c) {
   n.hot_pixel_fraction = c.hot_pixel_fraction;
   n.hot_pixel_hz = c.hot_pixel_hz;
   n.random_initial_reference = c.noise == "noisy";
+  n.photoreceptor_cutoff_hz = c.photoreceptor_cutoff_hz;
   return n;
 }
 
@@ -203,6 +204,7 @@ Recording simulate_scene(const Scene& scene, const Camera& cam, const SimConfig&
   meta["refractory_us"] = cfg.refractory_us;
   meta["leak_hz"] = cfg.leak_hz;
   meta["shot_hz"] = cfg.shot_hz;
+  meta["photoreceptor_cutoff_hz"] = cfg.photoreceptor_cutoff_hz;
   meta["duration_us"] = t;
   meta["mask_period_us"] = cfg.mask_period_us;
   meta["frames_rendered"] = st.frames_rendered;
