@@ -350,11 +350,15 @@ class IirStreamingLayer final : public StreamingLayer {
     const double th = double(theta_) * (1.0 - 1e-5);  // a hair low: rounding errs on "active"
     for (int c = 0; c < C; ++c) {
       const double a1 = a1_[b + c], b0 = b0_[b + c];
-      auto f = [&](double n) { return cs_ * std::pow(a_, n) * (a1 + n * b0); };
-      double m = f(1.0);
+      if (a1 + b0 <= 0 && b0 <= 0) continue;  // (a1 + n b0) <= 0 for every n >= 1
+      auto f = [&](int64_t n) { return cs_ * pa_(n) * (a1 + double(n) * b0); };
+      double m = f(1);
       if (b0 > 0) {
         const double ns = n_peak_ - a1 / b0;  // stationary point of (a1 + n b0) a^n
-        if (ns > 1.0) m = std::max({m, f(std::floor(ns)), f(std::ceil(ns))});
+        if (ns > 1.0) {
+          const int64_t n0 = ns < 1e9 ? int64_t(ns) : int64_t(1e9);
+          m = std::max({m, f(n0), f(n0 + 1)});
+        }
       }
       if (m >= th) return true;
     }
