@@ -1,0 +1,74 @@
+#include "train/loss/spikems_loss.h"
+
+#include "train/neuron/psp.h"
+
+namespace spikems::train {
+
+namespace {
+// fg_mask as [T or 1, B, 1, H, W].
+torch::Tensor mask5(const torch::Tensor& m) {
+  TORCH_CHECK(m.dim() == 3 || m.dim() == 4, "loss: fg_mask must be [B, H, W] or [T, B, H, W]");
+  return m.dim() == 3 ? m.unsqueeze(0).unsqueeze(2) : m.unsqueeze(2);
+}
+}  // namespace
+
+torch::Tensor spike_projection(const torch::Tensor& out, double ts) {
+  TORCH_CHECK(out.dim() == 5, "loss: spikes must be [T, B, C, H, W]");
+  return out.sum(std::vector<int64_t>{0, 2}) * ts;
+}
+
+torch::Tensor projection_probability(const torch::Tensor& P, const LossOptions& o) {
+  if (o.projection == LossOptions::Projection::Sigmoid)
+    return torch::sigmoid(o.alpha * (P - o.beta));
+  return 1 - torch::exp(-P / o.kappa);
+}
+
+torch::Tensor foreground_target(const torch::Tensor& input, const torch::Tensor& fg_mask) {
+  return input * mask5(fg_mask).to(input.dtype());
+}
+
+torch::Tensor bce_loss(const torch::Tensor& out, const torch::Tensor& input,
+                       const torch::Tensor& fg_mask, const LossOptions& o) {
+  TORCH_CHECK(
+      out.size(1) == input.size(1) && out.size(3) == input.size(3) && out.size(4) == input.size(4),
+      "loss: output and input must share batch and pixel grid (use align_to_input)");
+  torch::Tensor P = spike_projection(out, o.ts);  // [B, H, W]
+  torch::Tensor had =
+      (input.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(out.dtype());  // pixels with events
+  torch::Tensor fg =
+      (foreground_target(input.detach(), fg_mask).sum(std::vector<int64_t>{0, 2}) > 0)
+          .to(out.dtype());
+  torch::Tensor l;
+  if (o.projection == LossOptions::Projection::Sigmoid) {
+    torch::Tensor z = o.alpha * (P - o.beta);
+    // -[y log s(z) + (1-y) log(1-s(z))] = y softplus(-z) + (1-y) softplus(z)
+    l = fg * torch::softplus(-z) + (1 - fg) * torch::softplus(z);
+  } else {
+    torch::Tensor z = P / o.kappa;
+    torch::Tensor logp = torch::log(torch::clamp_min(-torch::expm1(-z), o.floor));
+    l = -(fg * logp) + (1 - fg) * z;  // log(1 - p) = -P/kappa exactly
+  }
+  torch::Tensor n = had.sum();
+  return (l * had).sum() / torch::clamp_min(n, 1.0);
+}
+
+torch::Tensor van_rossum_loss(const torch::Tensor& out, const torch::Tensor& target,
+                              const LossOptions& o) {
+  torch::Tensor tgt = target;
+  if (out.size(2) == 1 && target.size(2) != 1) tgt = target.sum(2, true);
+  TORCH_CHECK(out.sizes() == tgt.sizes(), "van Rossum loss: output and target shapes differ");
+  torch::Tensor f = psp(out, o.kernel, o.ts), g = psp(tgt.detach(), o.kernel, o.ts);
+  const double pixels = double(out.size(1) * out.size(3) * out.size(4));
+  return (f - g).pow(2).sum() * (o.ts / o.tau / pixels);
+}
+
+LossTerms spikems_loss(const torch::Tensor& out, const torch::Tensor& input,
+                       const torch::Tensor& fg_mask, const LossOptions& o) {
+  LossTerms t;
+  t.bce = bce_loss(out, input, fg_mask, o);
+  t.spike = van_rossum_loss(out, foreground_target(input, fg_mask), o);
+  t.total = t.bce + o.lambda * t.spike;
+  return t;
+}
+
+}  // namespace spikems::train

@@ -1,0 +1,52 @@
+// The SpikeMS spatio-temporal loss, L_total = L_bce + lambda * L_spike (docs/model.md).
+//
+// Shapes: out, input: [T, B, C, H, W] spikes (values 1/Ts) on the same pixel grid (align the
+// network output first with align_to_input); fg_mask: [B, H, W] (one mask per window) or
+// [T, B, H, W] (per time bin), 1 = independently moving object, 0 = background.
+//
+// L_bce: P(x) = Ts * sum_{t,c} out = the output spike count at pixel x, mapped to a probability
+//   Sigmoid:     p = sigmoid(alpha (P - beta))          (default alpha 2, beta 1)
+//   Exponential: p = 1 - exp(-P / kappa)                 (log p floored at log(floor))
+// label y(x) = 1 where the pixel had at least one foreground input event, 0 where its events
+// were all background; binary cross-entropy averaged over the pixels with input events.
+// L_spike (van Rossum): f = eps * out, g = eps * target, target = input * fg_mask, both with
+// the spike-response kernel eps (psp, scale Ts); L = (Ts / tau) * sum_{t,c,x} (f - g)^2 / (B H W)
+// (a sum over time and channels, a mean over samples and pixels). Channels are compared one to
+// one; a 1-channel output is compared with the target summed over channels.
+#pragma once
+
+#include <torch/torch.h>
+
+#include "train/neuron/temporal_kernel.h"
+
+namespace spikems::train {
+
+struct LossOptions {
+  enum class Projection { Sigmoid, Exponential };
+  Projection projection = Projection::Sigmoid;
+  double alpha = 2.0, beta = 1.0;    // Sigmoid
+  double kappa = 1.0, floor = 1e-4;  // Exponential
+  double lambda = 1.0;               // weight of L_spike
+  double ts = 1.0;                   // time step (ms)
+  double tau = 2.0;                  // van Rossum kernel time constant (ms)
+  TemporalKernel kernel = TemporalKernel::alpha(2.0, 1.0, 1.0);  // eps for L_spike
+};
+
+struct LossTerms {
+  torch::Tensor bce, spike, total;
+};
+
+// P(x): [B, H, W] output spike counts.
+torch::Tensor spike_projection(const torch::Tensor& out, double ts);
+// The probability p(P) of the chosen projection (for evaluation and plots).
+torch::Tensor projection_probability(const torch::Tensor& counts, const LossOptions& o);
+torch::Tensor bce_loss(const torch::Tensor& out, const torch::Tensor& input,
+                       const torch::Tensor& fg_mask, const LossOptions& o);
+torch::Tensor van_rossum_loss(const torch::Tensor& out, const torch::Tensor& target,
+                              const LossOptions& o);
+// target = input masked by the foreground mask, [T, B, C, H, W].
+torch::Tensor foreground_target(const torch::Tensor& input, const torch::Tensor& fg_mask);
+LossTerms spikems_loss(const torch::Tensor& out, const torch::Tensor& input,
+                       const torch::Tensor& fg_mask, const LossOptions& o);
+
+}  // namespace spikems::train
