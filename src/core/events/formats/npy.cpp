@@ -2,6 +2,12 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "core/events/formats/zip.h"
 #include "core/util/atomic_file.h"
@@ -315,17 +321,44 @@ void write_npy(const std::string& path, const NpyArray& a) {
   f.commit();
 }
 
-NpzFile::NpzFile(const std::string& path) : source_(path), bytes_(read_file_bytes(path)) {
-  index();
+NpzFile::NpzFile(const std::string& path) : source_(path) {
+  int fd = ::open(path.c_str(), O_RDONLY);
+  if (fd < 0) fail(path, "", std::string("cannot open: ") + std::strerror(errno));
+  struct stat st {};
+  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd);
+    fail(path, "", "not a regular file");
+  }
+  size_ = size_t(st.st_size);
+  if (size_ > 0) {
+    map_ = mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
+    if (map_ == MAP_FAILED) {
+      map_ = nullptr;
+      ::close(fd);
+      fail(path, "", std::string("cannot map the file: ") + std::strerror(errno));
+    }
+    data_ = static_cast<const uint8_t*>(map_);
+  }
+  ::close(fd);
+  try {
+    index();
+  } catch (...) {
+    if (map_) munmap(map_, size_);
+    throw;
+  }
+}
+
+NpzFile::~NpzFile() {
+  if (map_) munmap(map_, size_);
 }
 
 NpzFile::NpzFile(const uint8_t* data, size_t n, std::string source)
-    : source_(std::move(source)), bytes_(data, data + n) {
+    : source_(std::move(source)), data_(data), size_(n) {
   index();
 }
 
 void NpzFile::index() {
-  for (auto& e : zip_list(bytes_.data(), bytes_.size(), source_)) {
+  for (auto& e : zip_list(data_, size_, source_)) {
     std::string key = e.name;
     if (key.size() > 4 && key.compare(key.size() - 4, 4, ".npy") == 0)
       key.resize(key.size() - 4);
@@ -347,7 +380,11 @@ NpyArray NpzFile::get(const std::string& key) const {
     for (const auto& k : keys_) known += (known.empty() ? "" : ", ") + k;
     fail(source_, "", "npz archive has no array '" + key + "' (it has: " + known + ")");
   }
-  auto raw = zip_extract(bytes_.data(), bytes_.size(), it->second, source_);
+  if (it->second.method == 0) {  // stored: parse straight from the archive, one copy
+    auto [p, n] = zip_stored_view(data_, size_, it->second, source_);
+    return parse_npy_impl(p, n, source_ + ":" + key, nullptr);
+  }
+  auto raw = zip_extract(data_, size_, it->second, source_);
   return parse_npy_impl(raw.data(), raw.size(), source_ + ":" + key, &raw);
 }
 

@@ -48,11 +48,15 @@ void write_npy(const std::string& path, const NpyArray& a);  // atomic
 std::map<std::string, NpyArray> read_npz(const std::string& path);
 std::map<std::string, NpyArray> parse_npz(const uint8_t* data, size_t n, const std::string& source);
 // An npz archive opened once, arrays decoded on demand: lets a reader skip members it cannot
-// or need not decode (e.g. EV-IMO's pickled `meta`). The archive bytes are held in memory.
+// or need not decode (e.g. EV-IMO's pickled `meta`). A file is memory-mapped (read-only);
+// the memory constructor does not copy: the caller keeps `data` alive.
 class NpzFile {
  public:
   explicit NpzFile(const std::string& path);
   NpzFile(const uint8_t* data, size_t n, std::string source);
+  ~NpzFile();
+  NpzFile(const NpzFile&) = delete;
+  NpzFile& operator=(const NpzFile&) = delete;
   const std::vector<std::string>& keys() const { return keys_; }  // archive order
   bool has(const std::string& key) const;
   NpyArray get(const std::string& key) const;  // errors name "<file>:<key>"
@@ -61,7 +65,9 @@ class NpzFile {
  private:
   void index();
   std::string source_;
-  std::vector<uint8_t> bytes_;
+  const uint8_t* data_ = nullptr;
+  size_t size_ = 0;
+  void* map_ = nullptr;  // mmap of the file, or null
   std::vector<std::string> keys_;
   std::map<std::string, ZipEntry> entries_;
 };

@@ -260,6 +260,25 @@ std::vector<uint8_t> zip_extract(const uint8_t* data, size_t n, const ZipEntry& 
   return out;
 }
 
+std::pair<const uint8_t*, size_t> zip_stored_view(const uint8_t* data, size_t n, const ZipEntry& e,
+                                                  const std::string& source) {
+  View v{data, n, source};
+  const std::string who = "ZIP member '" + e.name + "'";
+  v.need(e.local_header_offset, 30, "local header");
+  const uint8_t* lh = data + e.local_header_offset;
+  if (load_le32(lh) != kLocalSig)
+    fail_at_byte(source, e.local_header_offset, "bad local header signature for " + who);
+  if (e.method != 0 || (e.flags & 1))
+    fail_at_byte(source, e.local_header_offset, who + " is not a plain stored member");
+  if (e.compressed_size != e.uncompressed_size)
+    fail_at_byte(source, e.local_header_offset, who + " is stored but its two sizes differ");
+  uint64_t start = e.local_header_offset + 30 + load_le16(lh + 26) + load_le16(lh + 28);
+  v.need(start, e.compressed_size, (who + " data").c_str());
+  if (crc32_of(data + start, e.compressed_size) != e.crc32)
+    fail_at_byte(source, start, who + " fails its CRC-32 check (corrupt data)");
+  return {data + start, size_t(e.compressed_size)};
+}
+
 ZipWriter::ZipWriter(AtomicFile& out, bool deflate, int level)
     : out_(out), deflate_(deflate), level_(level < 0 ? 6 : std::min(level, 9)) {}
 

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace spikems {
@@ -34,6 +35,10 @@ std::vector<ZipEntry> zip_list_file(const std::string& path);
 // Decompresses one member and checks its size and CRC-32.
 std::vector<uint8_t> zip_extract(const uint8_t* data, size_t n, const ZipEntry& e,
                                  const std::string& source);
+
+// A stored (method 0) member in place, after its CRC-32 check: {pointer into data, size}.
+std::pair<const uint8_t*, size_t> zip_stored_view(const uint8_t* data, size_t n, const ZipEntry& e,
+                                                  const std::string& source);
 
 // Writes an archive member by member into an AtomicFile (the caller commits it).
 class ZipWriter {
