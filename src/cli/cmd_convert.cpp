@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "cli/command.h"
+#include "core/events/event_ops.h"
 #include "core/events/io.h"
 #include "core/util/duration.h"
 #include "core/util/error.h"
@@ -18,6 +19,9 @@ using spikems::EventStream;
 struct ConvertArgs {
   std::string in, out, out_format, compression, from, to, out_time_unit = "us";
   std::string in_format, time_unit = "auto";
+  std::string crop, denoise, refractory;
+  bool flip_x = false, flip_y = false;
+  int downsample = 1;
   int level = -1, width = 0, height = 0;
   bool sort = false, absolute = false, quiet = false;
 };
@@ -27,6 +31,19 @@ void keep_range(EventStream& c, int64_t lo, int64_t hi) {
   if (c.empty() || (c.t.front() >= lo && c.t.back() < hi)) return;
   auto [b, e] = c.time_range(lo, hi);
   c = c.slice_index(b, e);
+}
+
+// "X,Y,W,H" -> crop fields of cfg.
+void parse_crop(const std::string& text, spikems::BinningConfig& cfg) {
+  int v[4];
+  char tail;
+  if (std::sscanf(text.c_str(), "%d,%d,%d,%d%c", &v[0], &v[1], &v[2], &v[3], &tail) != 4 ||
+      v[2] <= 0 || v[3] <= 0)
+    spikems::fail("--crop '" + text + "'", "", "expected X,Y,W,H (e.g. 109,66,128,128)");
+  cfg.crop_x = v[0];
+  cfg.crop_y = v[1];
+  cfg.crop_w = v[2];
+  cfg.crop_h = v[3];
 }
 
 void run(const ConvertArgs& a) {
@@ -84,12 +101,37 @@ void run(const ConvertArgs& a) {
   int64_t base = a.absolute || chunk.empty() ? 0 : chunk.t.front();
   int64_t lo = has_from ? base + from : INT64_MIN, hi = has_to ? base + to : INT64_MAX;
 
-  auto writer = spikems::open_writer(a.out, sensor, wo, a.out_format);
+  // Optional processing, in this order: denoise, refractory, geometry (crop, flip, downsample).
+  spikems::BinningConfig geo;
+  if (!a.crop.empty()) parse_crop(a.crop, geo);
+  geo.flip_x = a.flip_x;
+  geo.flip_y = a.flip_y;
+  geo.downsample = a.downsample;
+  const bool remap = !a.crop.empty() || a.flip_x || a.flip_y || a.downsample != 1;
+  spikems::SensorSize out_sensor = sensor;
+  if (remap) {
+    auto [h, w] = spikems::binned_size(sensor, geo);
+    out_sensor = {w, h};
+  }
+  std::unique_ptr<spikems::BackgroundActivityFilter> ba;
+  std::unique_ptr<spikems::RefractoryFilter> rf;
+  if (!a.denoise.empty())
+    ba = std::make_unique<spikems::BackgroundActivityFilter>(sensor,
+                                                             spikems::parse_duration_us(a.denoise));
+  if (!a.refractory.empty())
+    rf = std::make_unique<spikems::RefractoryFilter>(sensor,
+                                                     spikems::parse_duration_us(a.refractory));
+
+  auto writer = spikems::open_writer(a.out, out_sensor, wo, a.out_format);
   uint64_t read_total = 0, written = 0;
   auto emit = [&](EventStream& c) {
     read_total += c.size();
     keep_range(c, lo, hi);
     c.sensor = sensor;
+    if (ba) c = ba->apply(c);
+    if (rf) c = rf->apply(c);
+    if (remap) c = spikems::remap_events(c, geo);
+    c.sensor = out_sensor;
     if (!c.empty()) writer->write(c);
     written += c.size();
     bar.update(read_total);
@@ -113,7 +155,26 @@ void run(const ConvertArgs& a) {
   auto in_range = [&](int64_t t) { return t >= lo && t < hi; };
   std::erase_if(extras.masks, [&](const spikems::MaskFrame& m) { return !in_range(m.t_us); });
   std::erase_if(extras.poses, [&](const spikems::PoseSample& p) { return !in_range(p.t_us); });
-  extras.events.sensor = sensor;
+  extras.events.sensor = out_sensor;
+  if (remap && !extras.masks.empty()) {
+    // Mask frames follow the events through the same geometry (nearest pixel: the first
+    // sensor pixel of each output pixel).
+    const spikems::PixelMap pm(sensor, geo);
+    for (auto& m : extras.masks) {
+      spikems::MaskFrame o;
+      o.t_us = m.t_us;
+      o.width = out_sensor.width;
+      o.height = out_sensor.height;
+      o.ids.assign(size_t(o.width) * size_t(o.height), 0);
+      for (int y = m.height - 1; y >= 0; --y)
+        for (int x = m.width - 1; x >= 0; --x) {
+          int ox, oy;
+          if (pm.map(x, y, ox, oy)) o.ids[size_t(oy) * size_t(o.width) + size_t(ox)] = m.at(x, y);
+        }
+      m = std::move(o);
+    }
+  }
+  if (remap) extras.intrinsics.reset();  // no longer the camera's pixel grid
   writer->write_extras(extras);
   writer->close();
   if (!a.quiet)
@@ -151,6 +212,16 @@ void add(CLI::App& app) {
       ->check(CLI::Range(1, 65535));
   cmd->add_option("--height", a->height, "Sensor height where the input does not say")
       ->check(CLI::Range(1, 65535));
+  cmd->add_option("--denoise", a->denoise,
+                  "Background-activity filter: keep events with a neighbour event at most this "
+                  "long before (e.g. 1ms)");
+  cmd->add_option("--refractory", a->refractory,
+                  "Drop events closer than this to the previous kept event of their pixel");
+  cmd->add_option("--crop", a->crop, "Keep the region X,Y,W,H (sensor pixels)");
+  cmd->add_flag("--flip-x", a->flip_x, "Mirror left-right (after the crop)");
+  cmd->add_flag("--flip-y", a->flip_y, "Mirror top-bottom (after the crop)");
+  cmd->add_option("--downsample", a->downsample, "Integer factor: pixel = floor(coord / f)")
+      ->check(CLI::Range(1, 64));
   cmd->add_flag("-q,--quiet", a->quiet, "No progress bar or summary line");
   cmd->footer(
       "Examples:\n  spikems convert recording.raw recording.h5\n"

@@ -351,3 +351,54 @@ TEST(CliInfoConvertRender, RenderOutlinesTheMaskFrameOfAnEvimoFile) {
   EXPECT_TRUE(is(5, 4, label_color(2)));
   EXPECT_TRUE(is(1, 1, kOnColor));
 }
+
+TEST(CliInfoConvertRender, ConvertCropsDownsamplesAndDenoises) {
+  REQUIRE_FORMAT("text");
+  std::string dir = test::scratch_dir();
+  std::string txt = write_text(dir, "small.txt", kSmallText);
+  std::string out;
+  ReadOptions ro;
+  ro.time_unit = "us";
+  // Crop x 4..7, y 2..5, then halve: (5,4) -> (0,1), (6,4) -> (1,1); others are outside.
+  ASSERT_EQ(run_command(spikems_binary() + " convert -q --time-unit us " + q(txt) + " " +
+                            q(dir + "/c.txt") + " --crop 4,2,4,4 --downsample 2",
+                        &out),
+            0)
+      << out;
+  auto c = read_events(dir + "/c.txt", ro);
+  EXPECT_EQ(c.sensor, (SensorSize{2, 2}));
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(c.x, (std::vector<uint16_t>{0, 1}));
+  EXPECT_EQ(c.y, (std::vector<uint16_t>{1, 1}));
+  EXPECT_EQ(c.t, (std::vector<int64_t>{2000, 2500}));
+  // Flip x on the full sensor: x -> 7 - x.
+  ASSERT_EQ(run_command(spikems_binary() + " convert -q --time-unit us " + q(txt) + " " +
+                            q(dir + "/f.txt") + " --flip-x",
+                        &out),
+            0)
+      << out;
+  auto f = read_events(dir + "/f.txt", ro);
+  ASSERT_EQ(f.size(), 6u);
+  EXPECT_EQ(f.x[0], 6);
+  // Denoise with 600 us: only (6,4) at 2500 has a neighbour event ((5,4) at 2000) close enough;
+  // (2,1) at 1500 has (1,1) at 1000 as neighbour: kept too.
+  ASSERT_EQ(run_command(spikems_binary() + " convert -q --time-unit us " + q(txt) + " " +
+                            q(dir + "/d.txt") + " --denoise 600us",
+                        &out),
+            0)
+      << out;
+  auto d = read_events(dir + "/d.txt", ro);
+  EXPECT_EQ(d.t, (std::vector<int64_t>{1500, 2500}));
+  // A crop that does not fit the sensor is refused and nothing is written.
+  EXPECT_NE(run_command(spikems_binary() + " convert -q --time-unit us " + q(txt) + " " +
+                            q(dir + "/bad.txt") + " --crop 4,2,8,8",
+                        &out),
+            0);
+  EXPECT_NE(out.find("does not fit"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.txt"));
+  EXPECT_NE(run_command(spikems_binary() + " convert -q --time-unit us " + q(txt) + " " +
+                            q(dir + "/bad.txt") + " --crop 4,2",
+                        &out),
+            0);
+  EXPECT_NE(out.find("X,Y,W,H"), std::string::npos) << out;
+}

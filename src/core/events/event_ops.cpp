@@ -92,41 +92,70 @@ bool foreground_centroid(const EventStream& ev, int64_t t0, int64_t t1,
   return true;
 }
 
-EventStream refractory_filter(const EventStream& ev, int64_t period_us) {
-  need_sensor(ev, "refractory filter");
-  std::vector<int64_t> last(size_t(ev.sensor.width) * size_t(ev.sensor.height), INT64_MIN);
+namespace {
+
+void need_known(SensorSize s, const char* what) {
+  if (!s.known())
+    fail(what, "", "sensor size unknown; pass --width/--height or use a format that stores it");
+}
+
+}  // namespace
+
+RefractoryFilter::RefractoryFilter(SensorSize sensor, int64_t period_us)
+    : sensor_(sensor), period_(period_us) {
+  need_known(sensor, "refractory filter");
+  last_.assign(size_t(sensor.width) * size_t(sensor.height), INT64_MIN);
+}
+
+EventStream RefractoryFilter::apply(const EventStream& ev) {
   std::vector<uint8_t> keep(ev.size(), 0);
   for (size_t i = 0; i < ev.size(); ++i) {
-    size_t k = size_t(ev.y[i]) * size_t(ev.sensor.width) + ev.x[i];
-    if (last[k] != INT64_MIN && ev.t[i] - last[k] < period_us) continue;
+    if (ev.x[i] >= sensor_.width || ev.y[i] >= sensor_.height) continue;
+    size_t k = size_t(ev.y[i]) * size_t(sensor_.width) + ev.x[i];
+    if (last_[k] != INT64_MIN && ev.t[i] - last_[k] < period_) continue;
     keep[i] = 1;
-    last[k] = ev.t[i];
+    last_[k] = ev.t[i];
+  }
+  return select(ev, keep);
+}
+
+EventStream refractory_filter(const EventStream& ev, int64_t period_us) {
+  need_sensor(ev, "refractory filter");
+  return RefractoryFilter(ev.sensor, period_us).apply(ev);
+}
+
+BackgroundActivityFilter::BackgroundActivityFilter(SensorSize sensor, int64_t dt_us)
+    : sensor_(sensor), dt_(dt_us) {
+  need_known(sensor, "background-activity filter");
+  last_.assign(size_t(sensor.width) * size_t(sensor.height), INT64_MIN);
+}
+
+EventStream BackgroundActivityFilter::apply(const EventStream& ev) {
+  const int W = sensor_.width, H = sensor_.height;
+  std::vector<uint8_t> keep(ev.size(), 0);
+  for (size_t i = 0; i < ev.size(); ++i) {
+    const int x = ev.x[i], y = ev.y[i];
+    if (x >= W || y >= H) continue;
+    const int64_t t = ev.t[i];
+    bool support = false;
+    for (int yy = std::max(0, y - 1); yy <= std::min(H - 1, y + 1) && !support; ++yy)
+      for (int xx = std::max(0, x - 1); xx <= std::min(W - 1, x + 1); ++xx) {
+        if (xx == x && yy == y) continue;
+        int64_t lt = last_[size_t(yy) * size_t(W) + size_t(xx)];
+        if (lt != INT64_MIN && t - lt <= dt_) {
+          support = true;
+          break;
+        }
+      }
+    keep[i] = support;
+    last_[size_t(y) * size_t(W) + size_t(x)] = t;
   }
   return select(ev, keep);
 }
 
 EventStream background_activity_filter(const EventStream& ev, int64_t dt_us) {
   need_sensor(ev, "background-activity filter");
-  const int W = ev.sensor.width, H = ev.sensor.height;
-  std::vector<int64_t> last(size_t(W) * size_t(H), INT64_MIN);
-  std::vector<uint8_t> keep(ev.size(), 0);
-  for (size_t i = 0; i < ev.size(); ++i) {
-    const int x = ev.x[i], y = ev.y[i];
-    const int64_t t = ev.t[i];
-    bool support = false;
-    for (int yy = std::max(0, y - 1); yy <= std::min(H - 1, y + 1) && !support; ++yy)
-      for (int xx = std::max(0, x - 1); xx <= std::min(W - 1, x + 1); ++xx) {
-        if (xx == x && yy == y) continue;
-        int64_t lt = last[size_t(yy) * size_t(W) + size_t(xx)];
-        if (lt != INT64_MIN && t - lt <= dt_us) {
-          support = true;
-          break;
-        }
-      }
-    keep[i] = support;
-    last[size_t(y) * size_t(W) + size_t(x)] = t;
-  }
-  return select(ev, keep);
+  return BackgroundActivityFilter(ev.sensor, dt_us).apply(ev);
 }
 
 }  // namespace spikems

@@ -28,13 +28,34 @@ bool foreground_centroid(const EventStream& ev, int64_t t0, int64_t t1,
                          const std::vector<uint16_t>& moving_ids, double& cx, double& cy);
 
 // Refractory filter: drops an event when the same pixel (either polarity) had a KEPT event
-// less than period_us before it. Needs a known sensor size.
+// less than period_us before it. Needs a known sensor size. The class keeps its per-pixel state
+// between chunks, so a stream filtered chunk by chunk gives the same result as in one piece.
+class RefractoryFilter {
+ public:
+  RefractoryFilter(SensorSize sensor, int64_t period_us);
+  EventStream apply(const EventStream& chunk);
+
+ private:
+  SensorSize sensor_;
+  int64_t period_;
+  std::vector<int64_t> last_;
+};
 EventStream refractory_filter(const EventStream& ev, int64_t period_us);
 
 // Background-activity filter (the classic nearest-neighbour denoiser): keeps an event when one
 // of its 8 neighbouring pixels (not the pixel itself) had an event at most dt_us before it;
 // every event, kept or not, updates its pixel's last time. Isolated noise events are dropped,
-// edges of moving things survive. Needs a known sensor size.
+// edges of moving things survive. Needs a known sensor size. Chunk by chunk like above.
+class BackgroundActivityFilter {
+ public:
+  BackgroundActivityFilter(SensorSize sensor, int64_t dt_us);
+  EventStream apply(const EventStream& chunk);
+
+ private:
+  SensorSize sensor_;
+  int64_t dt_;
+  std::vector<int64_t> last_;
+};
 EventStream background_activity_filter(const EventStream& ev, int64_t dt_us);
 
 }  // namespace spikems

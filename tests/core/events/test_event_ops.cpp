@@ -100,3 +100,32 @@ TEST(EventOps, BackgroundActivityFilter) {
   EventStream unknown;
   EXPECT_THROW(background_activity_filter(unknown, 10), Error);
 }
+
+TEST(EventOps, FiltersGiveTheSameResultChunkByChunk) {
+  EventStream ev;
+  ev.sensor = {6, 4};
+  uint32_t r = 12345;
+  int64_t t = 0;
+  for (int i = 0; i < 3000; ++i) {
+    r = r * 1103515245u + 12345u;
+    t += (r >> 8) % 40;
+    ev.push_back(t, uint16_t((r >> 12) % 6), uint16_t((r >> 20) % 4), uint8_t((r >> 28) & 1));
+  }
+  auto whole_ba = background_activity_filter(ev, 60);
+  auto whole_rf = refractory_filter(ev, 90);
+  BackgroundActivityFilter ba(ev.sensor, 60);
+  RefractoryFilter rf(ev.sensor, 90);
+  EventStream parts_ba, parts_rf;
+  for (size_t b = 0; b < ev.size(); b += 257) {
+    auto chunk = ev.slice_index(b, b + 257);
+    parts_ba.append(ba.apply(chunk));
+    parts_rf.append(rf.apply(chunk));
+  }
+  EXPECT_EQ(parts_ba.t, whole_ba.t);
+  EXPECT_EQ(parts_rf.t, whole_rf.t);
+  // Both filters drop something and keep something on this input.
+  EXPECT_GT(whole_ba.size(), 0u);
+  EXPECT_LT(whole_ba.size(), ev.size());
+  EXPECT_GT(whole_rf.size(), 0u);
+  EXPECT_LT(whole_rf.size(), ev.size());
+}
