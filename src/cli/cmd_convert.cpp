@@ -145,6 +145,7 @@ void run(const ConvertArgs& a) {
       if (past_end) break;  // time-ordered input: nothing later can fall in the range
       emit(chunk);
       chunk.clear();
+      chunk.sensor = sensor;  // emit may have remapped it; the reader checks against it
       n = reader->read(chunk, spikems::kReadChunk);
     }
   }
