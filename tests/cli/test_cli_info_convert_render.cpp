@@ -6,6 +6,7 @@
 #include <tuple>
 
 #include "common/test_paths.h"
+#include "core/events/event_ops.h"
 #include "core/events/formats/npy.h"
 #include "core/events/io.h"
 #include "core/viz/event_frame.h"
@@ -401,4 +402,44 @@ TEST(CliInfoConvertRender, ConvertCropsDownsamplesAndDenoises) {
                         &out),
             0);
   EXPECT_NE(out.find("X,Y,W,H"), std::string::npos) << out;
+}
+
+// More events than one read chunk (kReadChunk): filters keep their state across chunks and the
+// remapped sensor size of one chunk does not leak into the reading of the next.
+TEST(CliInfoConvertRender, ConvertStreamsAcrossChunks) {
+  REQUIRE_FORMAT("text");
+  std::string dir = test::scratch_dir();
+  std::string txt = dir + "/big.txt";
+  {
+    std::string body = "# sensor 64 48\n";
+    body.reserve(kReadChunk * 16);
+    uint32_t r = 99;
+    char line[64];
+    for (size_t i = 0; i < kReadChunk + kReadChunk / 5; ++i) {
+      r = r * 1664525u + 1013904223u;
+      int n = std::snprintf(line, sizeof line, "%zu %u %u %u\n", i * 2, (r >> 8) % 64,
+                            (r >> 16) % 48, (r >> 30) & 1);
+      body.append(line, size_t(n));
+    }
+    std::ofstream(txt) << body;
+  }
+  std::string out;
+  ASSERT_EQ(run_command(spikems_binary() + " convert -q --time-unit us " + q(txt) + " " +
+                            q(dir + "/o.npz") + " --crop 8,4,48,40 --downsample 2 --denoise 40us",
+                        &out),
+            0)
+      << out;
+  ReadOptions ro;
+  ro.time_unit = "us";
+  EventStream all = read_events(txt, ro);
+  ASSERT_GT(all.size(), kReadChunk);
+  BinningConfig geo;
+  geo.crop_x = 8, geo.crop_y = 4, geo.crop_w = 48, geo.crop_h = 40, geo.downsample = 2;
+  EventStream want = remap_events(background_activity_filter(all, 40), geo);
+  EventStream got = read_events(dir + "/o.npz");
+  EXPECT_EQ(got.sensor, (SensorSize{24, 20}));
+  ASSERT_EQ(got.size(), want.size());
+  EXPECT_EQ(got.t, want.t);
+  EXPECT_EQ(got.x, want.x);
+  EXPECT_EQ(got.y, want.y);
 }
