@@ -117,7 +117,7 @@ TEST(CameraBadInput, BadHeadersAreClearErrors) {
   EXPECT_NE(try_read(bytes(std::string("Event Stream\x09\x00\x00\x01", 16) + "abcd"), "es", nullptr)
                 .find("version"),
             std::string::npos);
-  EXPECT_NE(try_read(bytes(std::string("Event Stream\x02\x00\x00\x02", 16) + "abcd"), "es", nullptr)
+  EXPECT_NE(try_read(bytes(std::string("Event Stream\x02\x00\x00\x03", 16) + "abcd"), "es", nullptr)
                 .find("type"),
             std::string::npos);
   EXPECT_NE(try_read(bytes("% evt 2.0\n% end\n"), "evt3", nullptr).find("EVT 2.0"),

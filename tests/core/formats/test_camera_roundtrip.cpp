@@ -289,5 +289,48 @@ TEST(CameraAedat3, DecodesPolarityPacketsAndSkipsOthers) {
   EXPECT_EQ(e[2].x, 2);
 }
 
+TEST(CameraEventStream, DecodesAtisKeepingDvsEventsOnly) {
+  std::string h("Event Stream\x02\x00\x00\x02", 16);
+  std::vector<uint8_t> b(h.begin(), h.end());
+  for (uint8_t v : {uint8_t(10), uint8_t(0), uint8_t(8), uint8_t(0)}) b.push_back(v);  // 10x8
+  auto ev = [&](int dt, int pol, int tc, int x, int y) {
+    for (uint8_t v :
+         {uint8_t((dt << 2) | (pol << 1) | tc), uint8_t(x), uint8_t(0), uint8_t(y), uint8_t(0)})
+      b.push_back(v);
+  };
+  ev(5, 1, 0, 3, 0);  // t=5, DVS ON at bottom row -> y = 7
+  b.push_back(0xFE);  // overflow x2: +126
+  b.push_back(0xFC);  // reset: nothing
+  ev(4, 0, 1, 1, 1);  // t=135, threshold crossing: skipped
+  ev(1, 0, 0, 9, 7);  // t=136, DVS OFF at top row -> y = 0
+  EventStream e = read_all_bytes(b, "es");
+  ASSERT_EQ(e.size(), 2u);
+  EXPECT_EQ(e[0].t, 5);
+  EXPECT_EQ(e[0].x, 3);
+  EXPECT_EQ(e[0].y, 7);
+  EXPECT_EQ(e[0].p, 1);
+  EXPECT_EQ(e[1].t, 136);
+  EXPECT_EQ(e[1].x, 9);
+  EXPECT_EQ(e[1].y, 0);
+  EXPECT_EQ(e[1].p, 0);
+}
+
+TEST(CameraReaderBase, AppendsAfterExistingEventsAndKeepsLabelsAligned) {
+  EventStream e = random_stream({640, 480}, 5000, 0, 3);
+  std::string path = test::scratch_dir() + "/l.raw";
+  write_in_chunks(path, e, {}, "evt3");
+  EventStream out;
+  out.push_back(0, 1, 1, 1, 42);  // a labelled event already there
+  auto r = open_reader(path);
+  while (r->read(out, 777) > 0) {
+  }
+  ASSERT_EQ(out.size(), e.size() + 1);
+  ASSERT_EQ(out.label.size(), out.size());
+  EXPECT_EQ(out.label[0], 42);
+  for (size_t i = 1; i < out.size(); ++i) ASSERT_EQ(out.label[i], 0) << i;
+  EXPECT_EQ(out.t[1], e.t[0]);
+  EXPECT_EQ(out.x.back(), e.x.back());
+}
+
 }  // namespace
 }  // namespace spikems

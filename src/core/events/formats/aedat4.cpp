@@ -3,7 +3,8 @@
 //   infoNode = XML describing the streams), then packets: int32 stream id, int32 size, payload.
 //   A payload (compressed as a whole with LZ4 frame or zstd, or not at all) is a size-prefixed
 //   EventPacket FlatBuffer: a vector of 16-byte structs {int64 t; int16 x; int16 y; bool on}.
-// Packets of streams that are not event streams (IMU, triggers, frames) are skipped.
+// Only the first event stream is read; packets of other streams (IMU, triggers, frames, a
+// second camera) are skipped.
 #include <lz4frame.h>
 #include <zstd.h>
 
@@ -176,10 +177,12 @@ class Aedat4Reader final : public CameraReader {
       fail_at_byte(in_.name(), hoff, "unknown compression type " + std::to_string(compression_));
     int64_t dtp = fv.i64(root, 1, -1);
     packets_end_ = dtp >= 0 ? uint64_t(dtp) : UINT64_MAX;
+    // The first event stream only: a second one (stereo rig) is another camera, whose
+    // events would interleave out of time order and in another coordinate frame.
     for (const auto& s : parse_aedat4_info(fv.string(root, 2))) {
-      if (s.type != "EVTS") continue;
+      if (s.type != "EVTS" || !event_streams_.empty()) continue;
       event_streams_.push_back(s.id);
-      if (!sensor_.known()) sensor_ = s.sensor;
+      sensor_ = s.sensor;
     }
     if (event_streams_.empty())
       fail_at_byte(in_.name(), hoff,
