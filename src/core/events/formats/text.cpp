@@ -19,7 +19,7 @@ constexpr size_t kUnitLookahead = 1000;
 // Buffered line splitter over a ByteSource (one virtual call per block, not per byte).
 class LineInput {
  public:
-  explicit LineInput(std::unique_ptr<ByteSource> src) : src_(std::move(src)), buf_(1 << 20) {}
+  explicit LineInput(std::unique_ptr<ByteSource> src) : src_(std::move(src)), buf_(1 << 16) {}
   const std::string& name() const { return src_->name(); }
   uint64_t line_no() const { return line_no_; }
   // Next line without its terminator ('\r' stripped); false at the end.
