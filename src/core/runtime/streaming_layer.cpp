@@ -149,15 +149,36 @@ class FirStreamingLayer final : public StreamingLayer {
     const int C = cout_, K = int(eps_.size());
     for (uint32_t pos : touched_) {
       const float* d = &drive_[size_t(pos) * C];
+      int64_t cross = -1;
       if (K > 1) {
         extend(pos, t, t + K - 1);
+        // Scatter and look for the first slot reaching theta in the same pass.
         for (int k = 1; k < K; ++k) {
           float* u = slot(pos, t + k);
           const float e = eps_[k];
-          for (int c = 0; c < C; ++c) u[c] += d[c] * e;
+          float m = -std::numeric_limits<float>::infinity();
+          for (int c = 0; c < C; ++c) {
+            u[c] += d[c] * e;
+            m = std::max(m, u[c]);
+          }
+          if (m >= theta_) {
+            cross = t + k;
+            break;
+          }
         }
+        if (cross >= 0) {  // finish the scatter past the crossing
+          for (int k = int(cross - t) + 1; k < K; ++k) {
+            float* u = slot(pos, t + k);
+            const float e = eps_[k];
+            for (int c = 0; c < C; ++c) u[c] += d[c] * e;
+          }
+        } else {
+          cross = next_crossing(pos, t + K);  // slots beyond the kernel (long refractory)
+        }
+      } else {
+        cross = next_crossing(pos, t + 1);
       }
-      schedule(pos, next_crossing(pos, t + 1));
+      schedule(pos, cross);
     }
   }
 
