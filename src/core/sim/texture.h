@@ -4,9 +4,13 @@
 // into spurious events.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include "core/sim/fast_math.h"
 
 namespace spikems::sim {
 
@@ -40,5 +44,33 @@ class Texture {
   TextureParams params_;
   std::vector<std::vector<float>> mips_;  // level 0: kTile x kTile, then halves
 };
+
+// Inline: called for every pixel of every frame.
+inline float Texture::bilinear(int level, float u, float v) const {
+  const int s = kTile >> level;
+  const auto& m = mips_[size_t(level)];
+  float x = u * s - 0.5f, y = v * s - 0.5f;
+  float fx0 = fast_floor(x), fy0 = fast_floor(y);
+  float ax = x - fx0, ay = y - fy0;
+  // Wrap (periodic); coordinates may be far from [0,1).
+  int x0 = int(int64_t(fx0) & (s - 1)), y0 = int(int64_t(fy0) & (s - 1));
+  int x1 = (x0 + 1) & (s - 1), y1 = (y0 + 1) & (s - 1);
+  const float* r0 = &m[size_t(y0) * s];
+  const float* r1 = &m[size_t(y1) * s];
+  return (r0[x0] * (1 - ax) + r0[x1] * ax) * (1 - ay) + (r1[x0] * (1 - ax) + r1[x1] * ax) * ay;
+}
+
+inline float Texture::sample(float u, float v, float footprint) const {
+  if (!(std::fabs(u) < 1e6f && std::fabs(v) < 1e6f)) return mips_.back()[0];  // also NaN
+  u -= fast_floor(u);
+  v -= fast_floor(v);
+  float lod = fast_log2(std::max(footprint * kTile, 1e-6f));
+  const int last = levels() - 1;
+  if (lod <= 0) return bilinear(0, u, v);
+  if (lod >= last) return mips_.back()[0];
+  int l0 = int(lod);
+  float a = lod - l0;
+  return bilinear(l0, u, v) * (1 - a) + bilinear(l0 + 1, u, v) * a;
+}
 
 }  // namespace spikems::sim
