@@ -162,8 +162,9 @@ void print_stats(const Segmenter& seg, double wall_s) {
 }
 
 void run(const Args& a) {
+  // Ctrl-C sets a flag (a second one exits at once); the loop below then stops reading and
+  // commits complete outputs for the events read so far.
   install_interrupt_flag();
-  install_interrupt_cleanup();
   if (a.threads != 1)
     std::fprintf(stderr,
                  "spikems segment: note: the runtime runs on one thread (--threads %d "
@@ -251,7 +252,8 @@ void run(const Args& a) {
       break;
     }
     chunk.clear();
-    bool more = from_stdin ? stdin_src->read(chunk, 1 << 16) : reader->read(chunk, 1 << 16) > 0;
+    // Small chunks keep Ctrl-C responsive even when the network is slow.
+    bool more = from_stdin ? stdin_src->read(chunk, 4096) : reader->read(chunk, 4096) > 0;
     if (!more) break;
     if (!seg) init(sensor.known() ? sensor : chunk.sensor);
     seg->push(chunk);

@@ -125,6 +125,30 @@ TEST(SegmentCli, LiveStdinToStdout) {
   EXPECT_NE(out.find("9000 7 7 0 1\n"), std::string::npos) << out;
 }
 
+// Ctrl-C on a live stream: reading stops, the events read so far are labelled, the output is
+// committed complete and the exit status is 0.
+TEST(SegmentCli, InterruptCommitsCompleteOutput) {
+  std::string d = scratch_dir();
+  std::string model = write_pass_off_model(d);
+  std::string out;
+  // The segment process writes its own pid, so the signal reaches it (not a subshell).
+  std::string script =
+      "( printf '1000 3 4 0\\n2000 5 5 1\\n'; sleep 2; printf '3000 6 6 0\\n'; "
+      "sleep 1 ) 2>/dev/null | sh -c 'echo $$ > " +
+      d + "/pid; exec " + spikems_binary() + " segment --model " + model +
+      " --input - --width 16 --height 12 --out " + d +
+      "/live.txt' & P=$!; sleep 1; kill -INT $(cat " + d + "/pid); wait $P; echo rc=$?";
+  std::ofstream(d + "/run.sh") << script << "\n";
+  run_command("sh " + d + "/run.sh", &out);
+  EXPECT_NE(out.find("rc=0"), std::string::npos) << out;
+  EXPECT_NE(out.find("interrupted"), std::string::npos) << out;
+  auto rows = read_rows(d + "/live.txt");
+  ASSERT_EQ(rows.size(), 3u) << out;
+  EXPECT_EQ(rows[0], (std::vector<long>{1000, 3, 4, 0, 1}));
+  EXPECT_EQ(rows[1], (std::vector<long>{2000, 5, 5, 1, 0}));
+  EXPECT_EQ(rows[2], (std::vector<long>{3000, 6, 6, 0, 1}));
+}
+
 TEST(SegmentCli, BadInputFailsWithAClearMessage) {
   std::string d = scratch_dir();
   std::string model = write_pass_off_model(d);
