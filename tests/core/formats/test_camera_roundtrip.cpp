@@ -203,6 +203,22 @@ TEST(CameraEvt3, DecodesVectorsAndTimeAsTheSpecSays) {
   EXPECT_EQ(e.sensor, (SensorSize{1280, 720}));
 }
 
+TEST(CameraEvt3, BinaryStartingWithPercentEndsAHeaderWithoutEndLine) {
+  // No "% end" line, and the first data byte is '%' (0x25): TIME_HIGH 0x025.
+  std::string h = "% evt 3.0\n% geometry 1280x720\n";
+  std::vector<uint8_t> b(h.begin(), h.end());
+  for (uint16_t w : {uint16_t(0x8025), uint16_t(0x6001), uint16_t(0x0003), uint16_t(0x2805)}) {
+    b.push_back(uint8_t(w));
+    b.push_back(uint8_t(w >> 8));
+  }
+  EventStream e = read_all_bytes(b, "evt3");
+  ASSERT_EQ(e.size(), 1u);
+  EXPECT_EQ(e[0].t, (0x25 << 12) + 1);
+  EXPECT_EQ(e[0].x, 5);
+  EXPECT_EQ(e[0].y, 3);
+  EXPECT_EQ(e.sensor, (SensorSize{1280, 720}));
+}
+
 void put_be32(std::vector<uint8_t>& b, uint32_t v) {
   for (int s = 24; s >= 0; s -= 8) b.push_back(uint8_t(v >> s));
 }

@@ -83,6 +83,14 @@ std::vector<std::string> BlockInput::read_header_lines(char prefix, const std::s
   std::vector<std::string> lines;
   uint64_t start = offset();
   while (fill(1) > 0 && ptr()[0] == uint8_t(prefix)) {
+    // Old files have no end line: binary data that happens to start with the prefix byte
+    // is told from a header line by its control bytes, and ends the header.
+    fill(4096);
+    const uint8_t* q = ptr();
+    const void* q_nl = std::memchr(q, '\n', avail());
+    size_t q_len = q_nl ? size_t(static_cast<const uint8_t*>(q_nl) - q) : avail();
+    if (std::any_of(q, q + q_len, [](uint8_t c) { return c < 0x20 && c != '\t' && c != '\r'; }))
+      break;
     std::string line;
     for (;;) {
       if (fill(1) == 0) break;
