@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
 
@@ -125,6 +126,41 @@ TEST(Evimo1, MasksAndFrameTimesFromMetaTxt) {
   EXPECT_EQ(r.masks[0].t_us, 600000);
   EXPECT_EQ(r.masks[1].t_us, 900000);
   EXPECT_EQ(nlohmann::json::parse(r.metadata_json)["mask_times"], "meta.txt");
+}
+
+TEST(Evimo1, TruncatedFlippedAndNanInputsAreErrors) {
+  SPIKEMS_REQUIRE_SHARED(path, "data/formats/poster_translation.npz");
+  std::string dir = test::scratch_dir();
+  std::ifstream in(path, std::ios::binary);
+  std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ReadOptions forced;
+  forced.format = "evimo1";
+  for (size_t cut : {size_t(10), size_t(1000), bytes.size() / 3, bytes.size() / 2,
+                     bytes.size() - 100, bytes.size() - 1}) {
+    std::string c = dir + "/cut.npz";
+    std::ofstream(c, std::ios::binary).write(bytes.data(), long(cut));
+    try {
+      read_recording(c, forced);
+      ADD_FAILURE() << "truncated at " << cut << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("cut.npz"), std::string::npos) << e.what();
+    }
+  }
+  auto flipped = bytes;
+  flipped[0] = 'X';
+  std::ofstream(dir + "/flip.npz", std::ios::binary).write(flipped.data(), long(flipped.size()));
+  EXPECT_THROW(read_recording(dir + "/flip.npz", forced), Error);
+  EXPECT_THROW(detect_format(dir + "/flip.npz"), Error);  // nothing recognises it
+  std::map<std::string, NpyArray> a;
+  a["events"] = NpyArray::from(std::vector<float>{0.5f, 1, 2, 1, NAN, 1, 1, 0}, {2, 4});
+  a["K"] = NpyArray::from(std::vector<double>{1, 0, 0, 0, 1, 0, 0, 0, 1}, {3, 3});
+  write_npz(dir + "/nan.npz", a, false);
+  try {
+    read_recording(dir + "/nan.npz");
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("event 1"), std::string::npos) << e.what();
+  }
 }
 
 TEST(PythonLiteral, ParsesTheMetaSubset) {
