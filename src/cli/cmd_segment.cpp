@@ -197,6 +197,7 @@ void run(const Args& a) {
   SegmenterOptions so;
   so.step_us = a.step_us;
   so.label_tolerance_steps = a.tolerance;
+  so.threads = a.threads;
   int64_t window = 0;
   if (!a.masks_dir.empty() || !a.boxes.empty() || a.mask_window_set)
     window = parse_duration_us(a.mask_window);
@@ -298,7 +299,8 @@ void add(CLI::App& app) {
   cmd->add_flag("--stats", a.stats,
                 "Print per-layer spikes and SynOps, events/s, real-time factor");
   cmd->add_flag("--quiet", a.quiet, "No progress bar");
-  cmd->add_option("--threads", a.threads, "Worker threads (the runtime currently uses one)")
+  cmd->add_option("--threads", a.threads,
+                  "Threads: the layers of each step run in parallel (at most one per layer)")
       ->check(CLI::Range(1, 256));
   cmd->add_option("--time-step-us", a.step_us, "Simulation step (default: the model's)")
       ->check(CLI::Range(int64_t(1), int64_t(1000000)));

@@ -34,6 +34,7 @@ Segmenter::Segmenter(const ModelSpec& m, SensorSize sensor, SegmenterOptions opt
       net_(checked(m, sensor, source_), sensor.height, sensor.width),
       labeller_(sensor, net_.out_height(), net_.out_width(), net_.out_channels(),
                 net_.latency_steps() + std::max(0, opt.label_tolerance_steps)) {
+  net_.set_threads(opt.threads);
   input_stamp_.assign(size_t(sensor.width) * sensor.height * 2, -1);
   labelled_.sensor = sensor;
   labelled_.add_zero_labels();

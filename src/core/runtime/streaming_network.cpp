@@ -1,5 +1,7 @@
 #include "core/runtime/streaming_network.h"
 
+#include <algorithm>
+
 #include "core/util/error.h"
 
 namespace spikems {
@@ -28,7 +30,75 @@ StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width)
   in_spikes_.assign(layers_.size(), 0);
 }
 
+TaskPool::TaskPool(int threads) {
+  for (int i = 1; i < threads; ++i)
+    workers_.emplace_back([this] {
+      uint64_t seen = 0;
+      while (true) {
+        {
+          std::unique_lock<std::mutex> lk(mu_);
+          start_cv_.wait(lk, [&] { return stop_ || generation_ != seen; });
+          if (stop_) return;
+          seen = generation_;
+        }
+        work();
+        std::lock_guard<std::mutex> lk(mu_);
+        if (--remaining_ == 0) done_cv_.notify_one();
+      }
+    });
+}
+
+TaskPool::~TaskPool() {
+  {
+    std::lock_guard<std::mutex> lk(mu_);
+    stop_ = true;
+  }
+  start_cv_.notify_all();
+  for (auto& t : workers_) t.join();
+}
+
+void TaskPool::work() {
+  for (int i = next_.fetch_add(1); i < ntasks_; i = next_.fetch_add(1)) (*task_)(i);
+}
+
+void TaskPool::run(int n, const std::function<void(int)>& task) {
+  {
+    std::lock_guard<std::mutex> lk(mu_);
+    task_ = &task;
+    ntasks_ = n;
+    next_ = 0;
+    remaining_ = int(workers_.size());
+    ++generation_;
+  }
+  start_cv_.notify_all();
+  work();
+  std::unique_lock<std::mutex> lk(mu_);
+  done_cv_.wait(lk, [&] { return remaining_ == 0; });
+}
+
+void StreamingNetwork::set_threads(int n) {
+  n = std::max(1, std::min(n, int(layers_.size())));
+  if (n == 1)
+    pool_.reset();
+  else
+    pool_ = std::make_unique<TaskPool>(n);
+}
+
 const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>& input) {
+  if (pool_) {
+    const int L = int(layers_.size());
+    pool_->run(L, [&](int k) {
+      out_[k].clear();
+      layers_[k]->fire(t_, out_[k]);
+    });
+    pool_->run(L, [&](int k) {
+      const std::vector<uint32_t>& in = k == 0 ? input : out_[k - 1];
+      layers_[k]->drive(t_, in.data(), in.size());
+    });
+    for (int k = 0; k < L; ++k) in_spikes_[k] += (k == 0 ? input : out_[k - 1]).size();
+    ++t_;
+    return out_.back();
+  }
   const std::vector<uint32_t>* in = &input;
   for (size_t k = 0; k < layers_.size(); ++k) {
     out_[k].clear();

@@ -4,8 +4,13 @@
 // eps[0] = 0). Layer k therefore answers an input spike k steps later at the earliest.
 #pragma once
 
+#include <atomic>
+#include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <mutex>
+#include <thread>
 #include <vector>
 
 #include "core/model/model_file.h"
@@ -20,6 +25,26 @@ struct LayerStats {
   size_t neurons = 0;
 };
 
+// Runs n independent tasks on a few threads and waits for them (the caller works too).
+class TaskPool {
+ public:
+  explicit TaskPool(int threads);
+  ~TaskPool();
+  void run(int n, const std::function<void(int)>& task);
+  int threads() const { return int(workers_.size()) + 1; }
+
+ private:
+  void work();
+  std::vector<std::thread> workers_;
+  std::mutex mu_;
+  std::condition_variable start_cv_, done_cv_;
+  const std::function<void(int)>* task_ = nullptr;
+  int ntasks_ = 0, remaining_ = 0;
+  uint64_t generation_ = 0;
+  bool stop_ = false;
+  std::atomic<int> next_{0};
+};
+
 class StreamingNetwork {
  public:
   // The input is [2, height, width] (channel = polarity). Throws Error when the model cannot
@@ -29,6 +54,11 @@ class StreamingNetwork {
   // Advances one step with the given input spikes, input neuron index (y*W + x)*2 + p, each at
   // most once. Returns the output layer's spikes of this step, index (y*Wo + x)*Co + c.
   const std::vector<uint32_t>& step(const std::vector<uint32_t>& input);
+  // Threads for step(): within a step, the layers fire independently of each other (their
+  // potential at t is already final), then take their drive independently (each from its
+  // predecessor's spikes of t), so each phase runs its layers in parallel. Results do not
+  // depend on the thread count.
+  void set_threads(int n);
 
   int64_t steps_done() const { return t_; }
   int latency_steps() const { return int(layers_.size()); }  // minimum, one per layer
@@ -49,6 +79,7 @@ class StreamingNetwork {
   std::vector<std::unique_ptr<StreamingLayer>> layers_;
   std::vector<std::vector<uint32_t>> out_;
   std::vector<uint64_t> in_spikes_;
+  std::unique_ptr<TaskPool> pool_;
 };
 
 }  // namespace spikems

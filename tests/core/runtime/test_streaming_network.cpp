@@ -2,6 +2,7 @@
 // decisions within 1e-5 of theta, on random and structured inputs, FIR and IIR models.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -235,6 +236,34 @@ TEST(StreamingNetwork, AuthorsModelMatchesReferenceOutputs) {
           expect += uint64_t(ny) * nx * 16;
         }
   EXPECT_EQ(net.stats()[0].synops, expect);
+}
+
+// Threads change nothing: every layer's spikes and SynOps are identical step by step.
+TEST(StreamingNetwork, ThreadsGiveIdenticalResults) {
+  for (auto disc : {Discretisation::FIR, Discretisation::IIR}) {
+    ModelSpec m = random_model(true, disc, RefractoryShape::SpikeMS, 13, 1.0f);
+    DenseTensor in = make_input(40, 24, 32, false, 14);
+    StreamingNetwork a(m, 24, 32), b(m, 24, 32);
+    b.set_threads(3);
+    size_t total = 0;
+    for (int t = 0; t < in.T; ++t) {
+      auto s = spikes_at(in, t);
+      a.step(s);
+      b.step(s);
+      for (size_t k = 0; k < m.layers.size(); ++k) {
+        auto x = a.layer_spikes(k), y = b.layer_spikes(k);
+        std::sort(x.begin(), x.end());
+        std::sort(y.begin(), y.end());
+        ASSERT_EQ(x, y) << "step " << t << " layer " << k;
+        total += x.size();
+      }
+    }
+    EXPECT_GT(total, 100u);
+    for (size_t k = 0; k < m.layers.size(); ++k) {
+      EXPECT_EQ(a.stats()[k].synops, b.stats()[k].synops);
+      EXPECT_EQ(a.stats()[k].in_spikes, b.stats()[k].in_spikes);
+    }
+  }
 }
 
 TEST(StreamingNetwork, RejectsInputTooSmall) {
