@@ -100,6 +100,16 @@ TEST(Text, HeaderSensorAndMaxPlusOne) {
   EXPECT_EQ(read_string("# sensor 40 30\n10 7 2 1\n", o).sensor, (SensorSize{100, 100}));
 }
 
+TEST(Text, CsvColumnHeaderRowIsSkipped) {
+  std::string dir = test::scratch_dir();
+  std::ofstream(dir + "/e.csv") << "timestamp,x,y,polarity\n0.25,1,2,1\n0.5,3,4,0\n";
+  EXPECT_EQ(detect_format(dir + "/e.csv").name, "text");
+  EventStream e = read_events(dir + "/e.csv");
+  EXPECT_EQ(e.t, (std::vector<int64_t>{250000, 500000}));
+  // Only before the first event: later it is a bad line.
+  EXPECT_NE(error_of("1 2 3 1\nt x y p\n").find("line 2"), std::string::npos);
+}
+
 TEST(Text, BadLinesNameTheLine) {
   struct Case {
     std::string text, expect;

@@ -1,6 +1,7 @@
 #include "core/events/formats/text.h"
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -93,6 +94,19 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
+// A CSV column-header row such as "timestamp,x,y,polarity": 4 or 5 fields, none a number.
+bool is_column_header(std::string_view line) {
+  std::string_view f[7];
+  int k = split(line, f);
+  if (k != 4 && k != 5) return false;
+  for (int j = 0; j < k; ++j) {
+    char c = f[j].front();
+    if (std::isdigit(static_cast<unsigned char>(c)) || c == '-' || c == '+' || c == '.')
+      return false;
+  }
+  return true;
+}
+
 bool looks_fractional(std::string_view t) {
   return t.find_first_of(".eE") != std::string_view::npos;
 }
@@ -111,6 +125,10 @@ class TextReader final : public EventReader {
       if (s.empty()) continue;
       if (s.front() == '#') {
         if (pending_.empty()) header_comment(s, unit_comment, opt.sensor.known());
+        continue;
+      }
+      if (pending_.empty() && !header_row_seen_ && is_column_header(s)) {
+        header_row_seen_ = true;  // CSV column names: skipped
         continue;
       }
       pending_.push_back({in_.line_no(), std::string(s)});
@@ -241,6 +259,7 @@ class TextReader final : public EventReader {
   std::string held_;
   SensorSize sensor_;
   bool seconds_ = false;
+  bool header_row_seen_ = false;
   int columns_ = 0;
   bool any_ = false;
   int max_x_ = 0, max_y_ = 0;
@@ -347,6 +366,7 @@ FormatInfo text_format() {
     for (uint8_t c : head)
       if (c < 9 || (c > 13 && c < 32) || c > 126) return 0;
     std::string s(head.begin(), head.end());
+    bool header_row = false;
     while (i < s.size()) {
       size_t e = s.find('\n', i);
       if (e == std::string::npos) e = s.size();
@@ -354,6 +374,10 @@ FormatInfo text_format() {
       if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
       i = e + 1;
       if (l.empty() || l.front() == '#') continue;
+      if (!header_row && is_column_header(l)) {
+        header_row = true;
+        continue;
+      }
       std::string_view fl[7];
       int k = split(l, fl);
       if (k != 4 && k != 5) return 0;

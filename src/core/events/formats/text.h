@@ -1,4 +1,6 @@
 // Plain-text events, one per line: "t x y p [label]" (spaces, tabs or commas between fields).
+//   - A CSV column-header row (4-5 non-numeric fields, e.g. "t,x,y,p") before the first
+//     event is skipped.
 //   - '#' starts a comment line. Two comments are understood anywhere before the first event:
 //     "# sensor W H" (sensor size) and "# time_unit s|us".
 //   - t: seconds (decimal) or microseconds (integer). Unit rule, first match wins:
