@@ -83,6 +83,10 @@ class ValidatingReader final : public EventReader {
 }  // namespace
 
 const FormatInfo& detect_format(const std::string& path) {
+  // "-" is standard input: a live stream, which is text lines ("t x y p") unless --format says.
+  if (path == "-") {
+    if (const FormatInfo* text = find_format("text")) return *text;
+  }
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) fail(path, "", "no such file or folder");
   std::vector<uint8_t> head;
