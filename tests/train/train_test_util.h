@@ -46,7 +46,7 @@ double finite_difference_error(F f, const torch::Tensor& x0, double h = 1e-6) {
     torch::Tensor fmt = f(xf.view(x.sizes()));
     double fm = (fmt * w).sum().item().toDouble();
     xf[i] = v;
-    err = std::max(err, std::abs((fp - fm) / (2 * h) - g.view(-1)[i].item<double>()));
+    err = std::max(err, std::abs((fp - fm) / (2 * h) - g.reshape(-1)[i].item<double>()));
   }
   return err;
 }
