@@ -118,13 +118,19 @@ void h5_read_all(hid_t dset, hid_t mem_type, void* out, const std::string& src,
 
 H5Handle h5_create_file(const std::string& path) {
   h5_quiet();
-  H5Handle f(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT));
+  // No object modification times: the same recording gives the same bytes (the simulator
+  // promises this).
+  H5Handle fcpl(H5Pcreate(H5P_FILE_CREATE));
+  H5Pset_obj_track_times(fcpl.get(), false);
+  H5Handle f(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, fcpl.get(), H5P_DEFAULT));
   if (!f.valid()) fail(path, "", "cannot create HDF5 file");
   return f;
 }
 
 H5Handle h5_create_group(hid_t parent, const std::string& name, const std::string& src) {
-  H5Handle g(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  H5Handle gcpl(H5Pcreate(H5P_GROUP_CREATE));
+  H5Pset_obj_track_times(gcpl.get(), false);
+  H5Handle g(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, gcpl.get(), H5P_DEFAULT));
   if (!g.valid()) fail(src, "", "cannot create HDF5 group '" + name + "'");
   return g;
 }
@@ -143,6 +149,7 @@ H5Handle h5_create_extendible(hid_t parent, const std::string& name, hid_t file_
   hsize_t dims = 0, maxdims = H5S_UNLIMITED, ch = chunk;
   H5Handle sp(H5Screate_simple(1, &dims, &maxdims));
   H5Handle dcpl(H5Pcreate(H5P_DATASET_CREATE));
+  H5Pset_obj_track_times(dcpl.get(), false);
   H5Pset_chunk(dcpl.get(), 1, &ch);
   set_filters(dcpl.get(), level);
   H5Handle d(
@@ -172,6 +179,7 @@ void h5_write_array(hid_t parent, const std::string& name, hid_t file_type, hid_
   H5Handle sp(dims.empty() ? H5Screate(H5S_SCALAR)
                            : H5Screate_simple(int(dims.size()), dims.data(), nullptr));
   H5Handle dcpl(H5Pcreate(H5P_DATASET_CREATE));
+  H5Pset_obj_track_times(dcpl.get(), false);
   bool any_zero = false;
   for (auto d : dims) any_zero |= d == 0;
   if (!chunk.empty() && !any_zero) {
