@@ -26,7 +26,9 @@
 #include "core/runtime/segmenter.h"
 #include "core/runtime/streaming_network.h"
 #ifdef SPIKEMS_HAVE_TRAIN
-// The LibTorch dense forward is compared in the same program once src/train provides it.
+#include <torch/torch.h>
+
+#include "train/network/spikems_network.h"
 #endif
 
 namespace {
@@ -260,6 +262,35 @@ void BM_DenseReference(benchmark::State& state) {
   state.counters["ms_per_step"] = wall * 1e3 / (double(state.iterations()) * T);
 }
 BENCHMARK(BM_DenseReference)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+
+#ifdef SPIKEMS_HAVE_TRAIN
+// Baseline: the LibTorch dense forward of src/train (train::forward_all_layers) on the same 10
+// steps, with the threads LibTorch is given (torch::set_num_threads: 1, then all).
+void BM_TorchDense(benchmark::State& state) {
+  static ModelSpec model = bench_model(0);
+  const int T = 10;
+  torch::set_num_threads(int(state.range(0)));
+  EventStream ev = synthetic_events(1e6, T * 1000, 42);
+  torch::Tensor in = torch::zeros({T, 1, 2, kH, kW});
+  auto a = in.accessor<float, 5>();
+  for (size_t i = 0; i < ev.size(); ++i) a[ev.t[i] / 1000][0][ev.p[i]][ev.y[i]][ev.x[i]] = 1;
+  double wall = 0;
+  for (auto _ : state) {
+    auto t0 = std::chrono::steady_clock::now();
+    auto outs = train::forward_all_layers(model, in);
+    benchmark::DoNotOptimize(outs.back().data_ptr());
+    wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  state.counters["realtime_x"] = double(state.iterations()) * T * 1e-3 / wall;
+  state.counters["ms_per_step"] = wall * 1e3 / (double(state.iterations()) * T);
+}
+BENCHMARK(BM_TorchDense)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(2);
+#endif
 
 }  // namespace
 
