@@ -186,3 +186,42 @@ TEST(SegmentCli, BadInputFailsWithAClearMessage) {
 
 }  // namespace
 }  // namespace spikems
+
+namespace spikems {
+namespace {
+
+// --score on an analytic case: OFF events every millisecond at 4 fixed pixels, all passed
+// through by the model, so every 10 ms window predicts those 4 pixels; only 2 of them carry a
+// moving-object label. Each window: |P∩G| = 2, |P∪G| = 4 → IoU 0.5; |P∩G| = |P \ G| → no
+// detection. ON events (label 0) reach a zero weight and predict nothing.
+TEST(SegmentCli, ScoreGivesThePapersIoUAndDetectionRate) {
+  std::string d = scratch_dir();
+  std::string model = write_pass_off_model(d);
+  std::string ev = d + "/labelled.txt";
+  {
+    std::ofstream f(ev);
+    f << "# sensor 48 16\n";
+    for (int t = 0; t < 40; ++t) {
+      for (int x = 10; x < 14; ++x) f << t * 1000 + 100 << " " << x << " 5 0 " << (x < 12) << "\n";
+      for (int x = 30; x < 34; ++x) f << t * 1000 + 200 << " " << x << " 5 1 0\n";
+    }
+  }
+  std::string out;
+  int rc = run_command(spikems_binary() + " segment --quiet --score --mask-window 10ms --model " +
+                           model + " --input " + ev,
+                       &out);
+  ASSERT_EQ(rc, 0) << out;
+  EXPECT_NE(out.find("score over 4 windows of 10 ms"), std::string::npos) << out;
+  EXPECT_NE(out.find("IoU 50.0 % +- 0.0, detection rate 0.0 %"), std::string::npos) << out;
+
+  // Unlabelled input cannot be scored: a clear error, non-zero exit.
+  std::string plain = write_events(d);
+  EXPECT_NE(run_command(spikems_binary() + " segment --quiet --score --model " + model +
+                            " --input " + plain,
+                        &out),
+            0);
+  EXPECT_NE(out.find("--score needs labelled events"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace spikems
