@@ -47,16 +47,20 @@ struct NaiveStep : torch::autograd::Function<NaiveStep> {
   }
 };
 
-torch::Tensor naive_forward(const ModelSpec& s, const std::vector<torch::Tensor>& w, torch::Tensor x) {
+torch::Tensor naive_forward(const ModelSpec& s, const std::vector<torch::Tensor>& w,
+                            torch::Tensor x) {
   const int64_t T = x.size(0);
   for (size_t k = 0; k < s.layers.size(); ++k) {
     const auto& l = s.layers[k];
     std::vector<torch::Tensor> us;
     for (int64_t t = 0; t < T; ++t) {  // psp and conv per time step
       torch::Tensor a = torch::zeros_like(x[0]);
-      for (int64_t i = 1; i < int64_t(l.srm_kernel.size()) && i <= t; ++i) a = a + double(l.srm_kernel[size_t(i)]) * x[t - i];
-      us.push_back(l.kind == LayerKind::Conv ? torch::conv2d(a, w[k], {}, l.stride, l.padding)
-                                             : torch::conv_transpose2d(a, w[k], {}, l.stride, l.padding, l.output_padding));
+      for (int64_t i = 1; i < int64_t(l.srm_kernel.size()) && i <= t; ++i)
+        a = a + double(l.srm_kernel[size_t(i)]) * x[t - i];
+      us.push_back(
+          l.kind == LayerKind::Conv
+              ? torch::conv2d(a, w[k], {}, l.stride, l.padding)
+              : torch::conv_transpose2d(a, w[k], {}, l.stride, l.padding, l.output_padding));
     }
     std::vector<torch::Tensor> ss;
     for (int64_t t = 0; t < T; ++t) {  // spike loop with the refractory of earlier spikes
@@ -108,15 +112,23 @@ void run(benchmark::State& st, bool naive, bool backward) {
   st.counters["peak_rss_MB"] = double(peak_rss_mb());
 }
 
-void BM_Forward(benchmark::State& s) { run(s, false, false); }
-void BM_ForwardNaive(benchmark::State& s) { run(s, true, false); }
-void BM_ForwardBackward(benchmark::State& s) { run(s, false, true); }
-void BM_ForwardBackwardNaive(benchmark::State& s) { run(s, true, true); }
+void BM_Forward(benchmark::State& s) {
+  run(s, false, false);
+}
+void BM_ForwardNaive(benchmark::State& s) {
+  run(s, true, false);
+}
+void BM_ForwardBackward(benchmark::State& s) {
+  run(s, false, true);
+}
+void BM_ForwardBackwardNaive(benchmark::State& s) {
+  run(s, true, true);
+}
 
-#define SIZES(fn, it_small, it_big)                                                              \
-  BENCHMARK(fn)->Args({10, 128, 128})->Iterations(it_small)->Unit(benchmark::kMillisecond);      \
-  BENCHMARK(fn)->Args({40, 128, 128})->Iterations(it_small)->Unit(benchmark::kMillisecond);      \
-  BENCHMARK(fn)->Args({10, 260, 346})->Iterations(it_big)->Unit(benchmark::kMillisecond);        \
+#define SIZES(fn, it_small, it_big)                                                         \
+  BENCHMARK(fn)->Args({10, 128, 128})->Iterations(it_small)->Unit(benchmark::kMillisecond); \
+  BENCHMARK(fn)->Args({40, 128, 128})->Iterations(it_small)->Unit(benchmark::kMillisecond); \
+  BENCHMARK(fn)->Args({10, 260, 346})->Iterations(it_big)->Unit(benchmark::kMillisecond);   \
   BENCHMARK(fn)->Args({40, 260, 346})->Iterations(it_big)->Unit(benchmark::kMillisecond)
 
 SIZES(BM_Forward, 3, 1);
