@@ -1,12 +1,12 @@
 // Streaming runtime throughput at 346x260 for 0.1, 1 and 5 million events per second, against
-// the dense forward of the same model in the same program (docs/perf-runtime.md).
+// the dense forward of the same model in the same program (docs/performance.md).
 //
 // Workload: synthetic events, deterministic seed: three rectangles moving at 150-400 px/s whose
 // edges emit 80% of the events, plus 20% uniform background noise; 1 ms steps.
 // Model: the SpikeMS authors' EV-IMO weights (../shared/reference/spikems-evimo/weights.npz) on
 // the padded, sensor-sized geometry (padding 1, output_padding 1). As they are, these weights
 // make every layer fire at 12-55 % of its neurons per step on real and synthetic input (see
-// docs/perf-runtime.md), far from a sparse trained SNN; so each layer's weights are scaled by a
+// docs/performance.md), far from a sparse trained SNN; so each layer's weights are scaled by a
 // factor found by bisection (60 ms of the 1 M ev/s workload) to make that layer fire at about
 // 2 % per step. The unscaled model is benchmarked too (BM_StreamingSegmentUnscaled).
 // Without ../shared: random weights (said in the output label).

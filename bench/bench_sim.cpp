@@ -2,7 +2,7 @@
 // second, adaptive steps against the fixed-step baseline (every step = dt_min) in the same
 // program, plus the cost of one rendered frame. Run:
 //   build/bench_sim --benchmark_counters_tabular=true
-// Figures: docs/perf-sim.md.
+// Figures: docs/performance.md.
 #include <benchmark/benchmark.h>
 
 #include <chrono>

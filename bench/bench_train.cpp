@@ -1,7 +1,7 @@
 // SpikeMS network (padded geometry, FIR kernels as the authors') forward and forward+backward
 // per sample on the CPU, against the same network written naively with per-step LibTorch
 // operations (psp as a sum of shifted copies, spike loop with per-step tensor ops + autograd,
-// conv called once per time step). Run: build-train/bench_train (figures: docs/perf-train.md).
+// conv called once per time step). Run: build-train/bench_train (figures: docs/performance.md).
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 
