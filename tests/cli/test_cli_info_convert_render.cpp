@@ -197,7 +197,9 @@ TEST(CliInfoConvertRender, ConvertRoundTripTextNpzText) {
   EXPECT_EQ(a.y, b.y);
   EXPECT_EQ(a.p, b.p);
   EXPECT_EQ(a.sensor, b.sensor);
-  if (b.has_labels()) EXPECT_EQ(a.label, b.label);
+  if (b.has_labels()) {
+    EXPECT_EQ(a.label, b.label);
+  }
 }
 
 TEST(CliInfoConvertRender, ConvertRoundTripTextToEveryWritableFormat) {

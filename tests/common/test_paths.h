@@ -14,9 +14,15 @@
 
 namespace spikems::test {
 
-inline std::string shared_dir() { return SPIKEMS_SHARED_DIR; }
-inline std::string source_dir() { return SPIKEMS_SOURCE_DIR; }
-inline std::string spikems_binary() { return SPIKEMS_BINARY; }
+inline std::string shared_dir() {
+  return SPIKEMS_SHARED_DIR;
+}
+inline std::string source_dir() {
+  return SPIKEMS_SOURCE_DIR;
+}
+inline std::string spikems_binary() {
+  return SPIKEMS_BINARY;
+}
 
 // Path of a shared file, or "" when ../shared is absent (fresh clone).
 inline std::string shared_file(const std::string& rel) {
@@ -24,10 +30,11 @@ inline std::string shared_file(const std::string& rel) {
   return std::filesystem::exists(p) ? p : std::string();
 }
 
-#define SPIKEMS_REQUIRE_SHARED(var, rel)                                                  \
-  std::string var = ::spikems::test::shared_file(rel);                                  \
-  if (var.empty()) GTEST_SKIP() << "shared material absent (" << rel                    \
-                                << " not found beside the checkout); this test runs in CI"
+#define SPIKEMS_REQUIRE_SHARED(var, rel)               \
+  std::string var = ::spikems::test::shared_file(rel); \
+  if (var.empty())                                     \
+  GTEST_SKIP() << "shared material absent (" << rel    \
+               << " not found beside the checkout); this test runs in CI"
 
 // A fresh, empty scratch folder unique to the running test.
 inline std::string scratch_dir() {

@@ -69,7 +69,9 @@ TEST(Reference, EndToEndLayer6WithinAFewTensOfMismatches) {
     int64_t count = layers[k].sum().item<int64_t>();
     std::printf("layer %zu end to end: %lld mismatches, %lld spikes (reference %lld)\n", k + 1,
                 (long long)n, (long long)count, (long long)expect_counts[k]);
-    if (k < 2) EXPECT_EQ(n, 0) << "layers 1-2 have no near-threshold decisions";
+    if (k < 2) {
+      EXPECT_EQ(n, 0) << "layers 1-2 have no near-threshold decisions";
+    }
     EXPECT_LE(n, 200) << "layer " << k + 1;
   }
   EXPECT_LE((layers[5] != time_major(z.at("layer6"))).sum().item<int64_t>(), 60);

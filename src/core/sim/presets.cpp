@@ -12,7 +12,8 @@ namespace {
 
 const std::map<std::string, std::string>& table() {
   static const std::map<std::string, std::string> t = {
-      {"mod", R"TOML(# MOD-like (EVDodgeNet "Moving Object Dataset"): a room with randomly textured walls, 1-3
+      {"mod",
+       R"TOML(# MOD-like (EVDodgeNet "Moving Object Dataset"): a room with randomly textured walls, 1-3
 # objects flying through it, a camera moving with 6 DoF. Every key is documented in
 # docs/simulator.md; ranges [low, high] are drawn per sequence.
 [preset]
@@ -75,7 +76,8 @@ frequency_hz = [0.2, 1.5]
 val_fraction = 0.1
 test_fraction = 0.1
 )TOML"},
-      {"evimo", R"TOML(# EV-IMO-like lab scenes: a smaller room, several box-like and round objects moved by hand
+      {"evimo",
+       R"TOML(# EV-IMO-like lab scenes: a smaller room, several box-like and round objects moved by hand
 # (slower), a hand-held camera. Every key is documented in docs/simulator.md.
 [preset]
 name = "evimo"
@@ -137,7 +139,8 @@ frequency_hz = [0.3, 1.5]
 val_fraction = 0.1
 test_fraction = 0.1
 )TOML"},
-      {"eed-net", R"TOML(# EED-like "ball behind a net": textured planes at several depths, a static net close to the
+      {"eed-net",
+       R"TOML(# EED-like "ball behind a net": textured planes at several depths, a static net close to the
 # camera, one fast round object behind it, a fast-moving camera. See docs/simulator.md.
 [preset]
 name = "eed-net"
@@ -268,7 +271,9 @@ test_fraction = 0.2
 
 }  // namespace
 
-std::vector<std::string> preset_names() { return {"mod", "evimo", "eed-net", "tiny"}; }
+std::vector<std::string> preset_names() {
+  return {"mod", "evimo", "eed-net", "tiny"};
+}
 
 const std::string& preset_toml(const std::string& name) {
   auto it = table().find(name);

@@ -84,7 +84,9 @@ TEST_P(CameraGolden, WholeFileMatchesGolden) {
   Stats s;
   s.add(ev);
   expect_golden(s, golden[c.file], "whole file");
-  if (c.sensor.known()) EXPECT_EQ(ev.sensor, c.sensor);
+  if (c.sensor.known()) {
+    EXPECT_EQ(ev.sensor, c.sensor);
+  }
 }
 
 TEST_P(CameraGolden, ChunkBoundariesDoNotMatter) {

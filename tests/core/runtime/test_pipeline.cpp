@@ -24,7 +24,9 @@ TEST(EventLabeller, WindowRuleIsExact) {
       std::vector<uint32_t> spikes;
       if (s == spike_step) spikes.push_back((1 * 4 + 1) * 2 + 1);  // channel 1 at pixel (1,1)
       lab.on_step(s, spikes, out);
-      if (s < 13) EXPECT_EQ(out.size(), 0u) << "decided before its window ended";
+      if (s < 13) {
+        EXPECT_EQ(out.size(), 0u) << "decided before its window ended";
+      }
     }
     ASSERT_EQ(out.size(), 1u);
     const bool want = spike_step >= 10 && spike_step <= 13;
@@ -89,7 +91,9 @@ TEST(KalmanTracker, EstimatesConstantVelocityWithStableIds) {
     for (int y = 5; y < 9; ++y)  // a static second object
       for (int x = 100; x < 104; ++x) m[y * W + x] = 1;
     last = tr.update(10000 * (f + 1), m, W, H);
-    if (f >= 1) ASSERT_EQ(last.size(), 2u) << "frame " << f;
+    if (f >= 1) {
+      ASSERT_EQ(last.size(), 2u) << "frame " << f;
+    }
   }
   const TrackedBox& mv = last[0].x0 < 90 ? last[0] : last[1];
   const TrackedBox& st = last[0].x0 < 90 ? last[1] : last[0];
