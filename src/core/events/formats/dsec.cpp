@@ -18,14 +18,12 @@ class DsecReader final : public EventReader {
   DsecReader(const std::string& path, const ReadOptions& opt) : path_(path) {
     file_ = h5_open_read(path);
     const hid_t f = file_.get();
-    t_ = h5_open_dataset(f, "/events/t", path);
-    x_ = h5_open_dataset(f, "/events/x", path);
-    y_ = h5_open_dataset(f, "/events/y", path);
-    p_ = h5_open_dataset(f, "/events/p", path);
-    n_ = h5_length_1d(t_.get(), path, "events/t");
-    for (auto* d : {&x_, &y_, &p_})
-      if (h5_length_1d(d->get(), path, "events") != n_)
-        fail(path, "", "DSEC event datasets x, y, t, p have different lengths");
+    H5EventColumns cols = h5_open_event_columns(f, "/events", path);
+    t_ = std::move(cols.t);
+    x_ = std::move(cols.x);
+    y_ = std::move(cols.y);
+    p_ = std::move(cols.p);
+    n_ = cols.n;
     if (h5_exists(f, "/t_offset")) {
       H5Handle o = h5_open_dataset(f, "/t_offset", path);
       auto s = h5_shape(o.get());

@@ -116,6 +116,19 @@ void h5_read_all(hid_t dset, hid_t mem_type, void* out, const std::string& src,
     fail(src, "dataset '" + name + "'", "HDF5 read failed (corrupt data or wrong type)");
 }
 
+H5EventColumns h5_open_event_columns(hid_t file, const std::string& group, const std::string& src) {
+  H5EventColumns c;
+  c.t = h5_open_dataset(file, group + "/t", src);
+  c.x = h5_open_dataset(file, group + "/x", src);
+  c.y = h5_open_dataset(file, group + "/y", src);
+  c.p = h5_open_dataset(file, group + "/p", src);
+  c.n = h5_length_1d(c.t.get(), src, group + "/t");
+  for (auto* d : {&c.x, &c.y, &c.p})
+    if (h5_length_1d(d->get(), src, group) != c.n)
+      fail(src, "", "event datasets " + group + "/{t,x,y,p} have different lengths");
+  return c;
+}
+
 H5Handle h5_create_file(const std::string& path) {
   h5_quiet();
   // No object modification times: the same recording gives the same bytes (the simulator

@@ -43,6 +43,13 @@ bool h5_exists(hid_t file, const std::string& path);  // "/a/b/c", every level c
 H5Handle h5_open_dataset(hid_t file, const std::string& path, const std::string& src);
 // Element count of a dataset, which must be 1-D (or, with allow_nd, its shape).
 uint64_t h5_length_1d(hid_t dset, const std::string& src, const std::string& name);
+// The columns GROUP/t, x, y, p of an event table (DSEC and spikems-h5 share this layout),
+// checked to be 1-D and of one length.
+struct H5EventColumns {
+  H5Handle t, x, y, p;
+  uint64_t n = 0;
+};
+H5EventColumns h5_open_event_columns(hid_t file, const std::string& group, const std::string& src);
 std::vector<uint64_t> h5_shape(hid_t dset);
 // Reads elements [offset, offset+n) of a 1-D dataset, converting to the memory type.
 void h5_read_range(hid_t dset, hid_t mem_type, uint64_t offset, uint64_t n, void* out,

@@ -178,14 +178,12 @@ class SpikemsH5Reader final : public EventReader {
     h5_get_attr_int(f, "sensor_height", h);
     if (w < 0 || h < 0 || w > 65536 || h > 65536) fail(path, "", "absurd sensor size attributes");
     sensor_ = opt.sensor.known() ? opt.sensor : SensorSize{int(w), int(h)};
-    t_ = h5_open_dataset(f, "/events/t", path);
-    x_ = h5_open_dataset(f, "/events/x", path);
-    y_ = h5_open_dataset(f, "/events/y", path);
-    p_ = h5_open_dataset(f, "/events/p", path);
-    n_ = h5_length_1d(t_.get(), path, "events/t");
-    for (auto* d : {&x_, &y_, &p_})
-      if (h5_length_1d(d->get(), path, "events") != n_)
-        fail(path, "", "event datasets t, x, y, p have different lengths");
+    H5EventColumns cols = h5_open_event_columns(f, "/events", path);
+    t_ = std::move(cols.t);
+    x_ = std::move(cols.x);
+    y_ = std::move(cols.y);
+    p_ = std::move(cols.p);
+    n_ = cols.n;
     if (h5_exists(f, "/events/label")) {
       label_ = h5_open_dataset(f, "/events/label", path);
       if (h5_length_1d(label_.get(), path, "events/label") != n_)
