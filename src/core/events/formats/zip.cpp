@@ -194,10 +194,12 @@ std::vector<ZipEntry> zip_list_file(const std::string& path) {
   return parse_directory(cd.data(), d.size, d.offset, d.count, path);
 }
 
-std::vector<uint8_t> zip_extract(const uint8_t* data, size_t n, const ZipEntry& e,
-                                 const std::string& source) {
+namespace {
+
+// Checks a member's local header and returns the offset of its data, which lies inside the file.
+uint64_t member_data_start(const uint8_t* data, size_t n, const ZipEntry& e,
+                           const std::string& source, const std::string& who) {
   View v{data, n, source};
-  const std::string who = "ZIP member '" + e.name + "'";
   v.need(e.local_header_offset, 30, "local header");
   const uint8_t* lh = data + e.local_header_offset;
   if (load_le32(lh) != kLocalSig)
@@ -206,6 +208,15 @@ std::vector<uint8_t> zip_extract(const uint8_t* data, size_t n, const ZipEntry& 
   // Sizes come from the central directory: numpy's ZIP64 local headers hold placeholders.
   uint64_t start = e.local_header_offset + 30 + load_le16(lh + 26) + load_le16(lh + 28);
   v.need(start, e.compressed_size, (who + " data").c_str());
+  return start;
+}
+
+}  // namespace
+
+std::vector<uint8_t> zip_extract(const uint8_t* data, size_t n, const ZipEntry& e,
+                                 const std::string& source) {
+  const std::string who = "ZIP member '" + e.name + "'";
+  const uint64_t start = member_data_start(data, n, e, source, who);
   const uint8_t* src = data + start;
   std::vector<uint8_t> out;
   if (e.method == 0) {
@@ -262,18 +273,12 @@ std::vector<uint8_t> zip_extract(const uint8_t* data, size_t n, const ZipEntry& 
 
 std::pair<const uint8_t*, size_t> zip_stored_view(const uint8_t* data, size_t n, const ZipEntry& e,
                                                   const std::string& source) {
-  View v{data, n, source};
   const std::string who = "ZIP member '" + e.name + "'";
-  v.need(e.local_header_offset, 30, "local header");
-  const uint8_t* lh = data + e.local_header_offset;
-  if (load_le32(lh) != kLocalSig)
-    fail_at_byte(source, e.local_header_offset, "bad local header signature for " + who);
-  if (e.method != 0 || (e.flags & 1))
+  if (e.method != 0)
     fail_at_byte(source, e.local_header_offset, who + " is not a plain stored member");
   if (e.compressed_size != e.uncompressed_size)
     fail_at_byte(source, e.local_header_offset, who + " is stored but its two sizes differ");
-  uint64_t start = e.local_header_offset + 30 + load_le16(lh + 26) + load_le16(lh + 28);
-  v.need(start, e.compressed_size, (who + " data").c_str());
+  const uint64_t start = member_data_start(data, n, e, source, who);
   if (crc32_of(data + start, e.compressed_size) != e.crc32)
     fail_at_byte(source, start, who + " fails its CRC-32 check (corrupt data)");
   return {data + start, size_t(e.compressed_size)};
