@@ -33,7 +33,7 @@ struct Args {
   std::string model, input, out, masks_dir, boxes;
   std::string mask_window = "10ms";
   bool mask_window_set = false;
-  bool stats = false, quiet = false, score = false;
+  bool stats = false, quiet = false, score = false, iir = false;
   int threads = 1;
   int64_t step_us = 0;
   int tolerance = 3;
@@ -168,6 +168,7 @@ void run(const Args& a) {
   // commits complete outputs for the events read so far.
   install_interrupt_flag();
   ModelSpec model = load_model(a.model);
+  if (a.iir) model = with_iir_neurons(std::move(model), a.model);
   ReadOptions ro;
   ro.sort = a.read.sort;
   ro.time_unit = a.read.time_unit;
@@ -344,6 +345,9 @@ void add(CLI::App& app) {
   cmd->add_option("--threads", a.threads,
                   "Threads: the layers of each step run in parallel (at most one per layer)")
       ->check(CLI::Range(1, 256));
+  cmd->add_flag("--iir", a.iir,
+                "Run FIR layers with the exact recursions of the same neurons (no kernel "
+                "truncation): 2-3x faster, spikes close to but not identical with the FIR model");
   cmd->add_option("--time-step-us", a.step_us, "Simulation step (default: the model's)")
       ->check(CLI::Range(int64_t(1), int64_t(1000000)));
   cmd->add_option("--label-tolerance", a.tolerance,

@@ -48,6 +48,7 @@ struct Cmp {
 Cmp compare_layer(const LayerSpec& l, double ts, const torch::Tensor& in, const torch::Tensor& want,
                   double near) {
   auto sl = StreamingLayer::create(l, ts, int(in.size(3)), int(in.size(4)));
+  sl->record_potentials(true);
   auto steps = to_steps(in);
   auto w = want.contiguous();
   const int64_t C = w.size(2), H = w.size(3), W = w.size(4);

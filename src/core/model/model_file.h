@@ -77,6 +77,12 @@ std::vector<float> sample_refractory_kernel(const NeuronParams& n, double ts);
 // Fills srm_kernel/ref_kernel of every FIR layer from its neuron parameters.
 void fill_fir_kernels(ModelSpec& spec);
 
+// The same model with IIR neurons: each FIR layer whose stored kernels are the sampled kernels
+// of its neuron parameters (as fill_fir_kernels makes them, within 1e-6) switches to the exact
+// recursions of those kernels, i.e. the same neuron without the kernels' truncation (the
+// streaming runtime's fast path). Throws Error naming the layer when its kernels differ.
+ModelSpec with_iir_neurons(ModelSpec spec, const std::string& source);
+
 // The SpikeMS network of the paper (BRIEF.md section 3), weights zero-filled.
 // padded=false: the authors' geometry (padding 0, output one pixel smaller per 8);
 // padded=true: padding 1 and output_padding 1, so a multiple-of-8 input keeps its size.

@@ -1,5 +1,6 @@
 #include "core/runtime/segmenter.h"
 
+#include <bit>
 #include <cmath>
 
 #include "core/util/error.h"
@@ -35,19 +36,28 @@ Segmenter::Segmenter(const ModelSpec& m, SensorSize sensor, SegmenterOptions opt
       labeller_(sensor, net_.out_height(), net_.out_width(), net_.out_channels(),
                 net_.latency_steps() + std::max(0, opt.label_tolerance_steps)) {
   net_.set_threads(opt.threads);
-  input_stamp_.assign(size_t(sensor.width) * sensor.height * 2, -1);
+  input_bits_.assign((size_t(sensor.width) * sensor.height * 2 + 63) / 64, 0);
   labelled_.sensor = sensor;
   labelled_.add_zero_labels();
 }
 
 void Segmenter::run_step() {
   auto t0 = std::chrono::steady_clock::now();
+  // The input in neuron order (a bitmap, not the events' order): the first layer's scatter
+  // then walks its state forward instead of jumping around the sensor.
+  input_.clear();
+  if (input_count_ > 0)
+    for (size_t w = 0; w < input_bits_.size(); ++w) {
+      for (uint64_t m = input_bits_[w]; m != 0; m &= m - 1)
+        input_.push_back(uint32_t(w * 64 + size_t(std::countr_zero(m))));
+      input_bits_[w] = 0;
+    }
+  input_count_ = 0;
   const auto& out = net_.step(input_);
   net_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const int64_t s = cur_step_;
   if (masks_) masks_->add_spikes(origin_ + s * step_us_, out);
   labeller_.on_step(s, out, labelled_);
-  input_.clear();
   ++cur_step_;
   if (masks_) masks_->close_until(origin_ + cur_step_ * step_us_, frames_);
 }
@@ -78,10 +88,10 @@ void Segmenter::push(const EventStream& c) {
     const int64_t step = (t - origin_) / step_us_;
     while (cur_step_ < step) run_step();
     const uint32_t n = (uint32_t(c.y[i]) * uint32_t(sensor_.width) + c.x[i]) * 2u + c.p[i];
-    if (input_stamp_[n] != step) {
-      input_stamp_[n] = step;
-      input_.push_back(n);
-    }
+    uint64_t& word = input_bits_[n >> 6];
+    const uint64_t bit = uint64_t(1) << (n & 63);
+    input_count_ += (word & bit) == 0;
+    word |= bit;
     labeller_.push(c[i], step);
     if (masks_) masks_->add_event(t, c.x[i], c.y[i]);
   }

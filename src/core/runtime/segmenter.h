@@ -65,8 +65,9 @@ class Segmenter {
   bool started_ = false, finished_ = false;
   int64_t origin_ = 0, last_t_ = 0, cur_step_ = 0;
   uint64_t events_in_ = 0;
-  std::vector<uint32_t> input_;       // this step's input spikes
-  std::vector<int64_t> input_stamp_;  // per input neuron: last step it spiked
+  std::vector<uint32_t> input_;       // this step's input spikes, ascending
+  std::vector<uint64_t> input_bits_;  // this step's input neurons, one bit each
+  size_t input_count_ = 0;            // bits set in input_bits_
   EventStream labelled_;
   std::vector<PredictionFrame> frames_;
   double net_seconds_ = 0;

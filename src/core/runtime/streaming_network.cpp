@@ -26,7 +26,9 @@ StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width)
     if (size_t(h) * w * l.out_channels >= (size_t(1) << 32))
       fail(m.name, "layer " + std::to_string(k), "layer too large for 32-bit neuron indices");
   }
-  out_.resize(layers_.size());
+  emitted_.resize(layers_.size());
+  now_.resize(layers_.size());
+  ahead_.resize(layers_.size());
   in_spikes_.assign(layers_.size(), 0);
 }
 
@@ -85,30 +87,22 @@ void StreamingNetwork::set_threads(int n) {
 }
 
 const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>& input) {
-  if (pool_) {
-    const int L = int(layers_.size());
-    pool_->run(L, [&](int k) {
-      out_[k].clear();
-      layers_[k]->fire(t_, out_[k]);
-    });
-    pool_->run(L, [&](int k) {
-      const std::vector<uint32_t>& in = k == 0 ? input : out_[k - 1];
-      layers_[k]->drive(t_, in.data(), in.size());
-    });
-    for (int k = 0; k < L; ++k) in_spikes_[k] += (k == 0 ? input : out_[k - 1]).size();
-    ++t_;
-    return out_.back();
-  }
-  const std::vector<uint32_t>* in = &input;
-  for (size_t k = 0; k < layers_.size(); ++k) {
-    out_[k].clear();
-    layers_[k]->fire(t_, out_[k]);
-    in_spikes_[k] += in->size();
-    layers_[k]->drive(t_, in->data(), in->size());
-    in = &out_[k];
-  }
+  const int L = int(layers_.size());
+  auto run = [&](int k) {
+    const std::vector<uint32_t>& in = k == 0 ? input : now_[size_t(k - 1)];
+    ahead_[size_t(k)].clear();
+    layers_[size_t(k)]->step(t_, in.data(), in.size(), ahead_[size_t(k)]);
+  };
+  if (pool_)
+    pool_->run(L, run);
+  else
+    for (int k = 0; k < L; ++k) run(k);
+  for (int k = 0; k < L; ++k)
+    in_spikes_[size_t(k)] += (k == 0 ? input : now_[size_t(k - 1)]).size();
+  emitted_.swap(now_);  // spikes of t
+  now_.swap(ahead_);    // spikes of t+1; ahead_ holds buffers to reuse
   ++t_;
-  return out_.back();
+  return emitted_.back();
 }
 
 std::vector<LayerStats> StreamingNetwork::stats() const {

@@ -1,7 +1,8 @@
 // The event-driven network: a chain of StreamingLayer, advanced one time step at a time.
-// Per step, each layer first fires (its potential at t is already final), then takes the
-// spikes its predecessor emitted at t as drive (reaching its potential from t+1 on, since
-// eps[0] = 0). Layer k therefore answers an input spike k steps later at the earliest.
+// At step t, each layer emits its spikes of t (computed during the previous step: its
+// potential at t depends on input before t only, since eps[0] = 0), takes the spikes its
+// predecessor emits at t as input, and computes its spikes of t+1. Layer k therefore answers
+// an input spike k steps later at the earliest.
 #pragma once
 
 #include <atomic>
@@ -54,10 +55,9 @@ class StreamingNetwork {
   // Advances one step with the given input spikes, input neuron index (y*W + x)*2 + p, each at
   // most once. Returns the output layer's spikes of this step, index (y*Wo + x)*Co + c.
   const std::vector<uint32_t>& step(const std::vector<uint32_t>& input);
-  // Threads for step(): within a step, the layers fire independently of each other (their
-  // potential at t is already final), then take their drive independently (each from its
-  // predecessor's spikes of t), so each phase runs its layers in parallel. Results do not
-  // depend on the thread count.
+  // Threads for step(): within a step, each layer reads only its predecessor's spikes of t
+  // (computed the step before) and writes its own of t+1, so the layers run in parallel.
+  // Results do not depend on the thread count.
   void set_threads(int n);
 
   int64_t steps_done() const { return t_; }
@@ -69,7 +69,7 @@ class StreamingNetwork {
   int out_width() const { return layers_.back()->out_width(); }
   size_t layer_count() const { return layers_.size(); }
   StreamingLayer& layer(size_t k) { return *layers_[k]; }
-  const std::vector<uint32_t>& layer_spikes(size_t k) const { return out_[k]; }  // this step
+  const std::vector<uint32_t>& layer_spikes(size_t k) const { return emitted_[k]; }  // this step
   std::vector<LayerStats> stats() const;
   uint64_t total_synops() const;
 
@@ -77,7 +77,9 @@ class StreamingNetwork {
   int h_, w_;
   int64_t t_ = 0;
   std::vector<std::unique_ptr<StreamingLayer>> layers_;
-  std::vector<std::vector<uint32_t>> out_;
+  // Per layer: spikes emitted at the last step, spikes of the coming step, and a buffer the
+  // layers write the step after that into.
+  std::vector<std::vector<uint32_t>> emitted_, now_, ahead_;
   std::vector<uint64_t> in_spikes_;
   std::unique_ptr<TaskPool> pool_;
 };

@@ -174,3 +174,30 @@ TEST(ModelFile, ValidateRejectsBrokenChainAndNaN) {
   s.layers[1].neuron.theta = -1;
   EXPECT_THROW(s.validate("x"), Error);
 }
+
+namespace spikems {
+namespace {
+
+TEST(WithIirNeurons, SwitchesSampledFirLayersAndRefusesOtherKernels) {
+  ModelSpec m = spikems_architecture(true, Discretisation::FIR);
+  ModelSpec i = with_iir_neurons(m, "m");
+  ASSERT_EQ(i.layers.size(), m.layers.size());
+  for (size_t k = 0; k < i.layers.size(); ++k) {
+    EXPECT_EQ(i.layers[k].neuron.discretisation, Discretisation::IIR);
+    EXPECT_TRUE(i.layers[k].srm_kernel.empty());
+    EXPECT_TRUE(i.layers[k].ref_kernel.empty());
+    EXPECT_EQ(i.layers[k].neuron.tau_s, m.layers[k].neuron.tau_s);
+    EXPECT_EQ(i.layers[k].weight, m.layers[k].weight);
+  }
+  i.validate("i");
+  m.layers[2].srm_kernel[3] *= 1.01f;  // a hand-made kernel has no IIR form
+  try {
+    with_iir_neurons(m, "model.safetensors");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("layer 2"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace spikems

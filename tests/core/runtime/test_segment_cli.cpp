@@ -111,6 +111,36 @@ TEST(SegmentCli, LabelsMasksBoxesAndStats) {
   EXPECT_NE(out.find("real-time factor"), std::string::npos);
 }
 
+// --iir runs the FIR model with the exact recursions of the same neurons: on this clean input
+// the labels are the same; a model whose kernels are not the sampled ones is refused.
+TEST(SegmentCli, IirOptionGivesTheSameLabelsHereAndRefusesOddKernels) {
+  std::string d = scratch_dir();
+  std::string model = write_pass_off_model(d), ev = write_events(d);
+  std::string out;
+  ASSERT_EQ(run_command(spikems_binary() + " segment --quiet --model " + model + " --input " + ev +
+                            " --out " + d + "/fir.txt",
+                        &out),
+            0)
+      << out;
+  ASSERT_EQ(run_command(spikems_binary() + " segment --quiet --iir --model " + model + " --input " +
+                            ev + " --out " + d + "/iir.txt",
+                        &out),
+            0)
+      << out;
+  auto fir = read_rows(d + "/fir.txt"), iir = read_rows(d + "/iir.txt");
+  ASSERT_EQ(fir.size(), 480u);
+  EXPECT_EQ(fir, iir);
+  ModelSpec m = load_model(model);
+  m.layers[0].srm_kernel[2] += 0.5f;
+  save_model(d + "/odd.safetensors", m);
+  EXPECT_NE(run_command(spikems_binary() + " segment --quiet --iir --model " + d +
+                            "/odd.safetensors --input " + ev + " --out " + d + "/odd.txt",
+                        &out),
+            0);
+  EXPECT_NE(out.find("no exact IIR form"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(d + "/odd.txt"));
+}
+
 TEST(SegmentCli, LiveStdinToStdout) {
   std::string d = scratch_dir();
   std::string model = write_pass_off_model(d);

@@ -39,6 +39,7 @@ Diff compare_layer(StreamingLayer& sl, const DenseTensor& in, const DenseLayerOu
   EXPECT_EQ(sl.out_width(), W);
   std::vector<uint32_t> out;
   std::vector<uint8_t> got(size_t(C) * H * W);
+  sl.record_potentials(true);
   for (int t = 0; t < in.T; ++t) {
     out.clear();
     sl.fire(t + t_offset, out);
@@ -263,6 +264,45 @@ TEST(StreamingNetwork, ThreadsGiveIdenticalResults) {
       EXPECT_EQ(a.stats()[k].synops, b.stats()[k].synops);
       EXPECT_EQ(a.stats()[k].in_spikes, b.stats()[k].in_spikes);
     }
+  }
+}
+
+// Geometries and channel counts beside SpikeMS's: stride 1 with a 5x5 kernel, a 4x4 transposed
+// kernel, channel counts the runtime has no specialised code for (3, 5, 70: the generic loops,
+// more than 64 channels per position), FIR and IIR.
+TEST(StreamingNetwork, OtherGeometriesAndChannelCountsMatchDense) {
+  for (auto disc : {Discretisation::FIR, Discretisation::IIR}) {
+    ModelSpec m;
+    m.name = "odd";
+    struct Row {
+      LayerKind kind;
+      int ci, co, k, s, p, op;
+    };
+    for (const Row& r :
+         {Row{LayerKind::Conv, 2, 5, 5, 1, 2, 0}, Row{LayerKind::Conv, 5, 70, 3, 2, 1, 0},
+          Row{LayerKind::ConvTranspose, 70, 3, 4, 2, 1, 0}}) {
+      LayerSpec l;
+      l.kind = r.kind;
+      l.in_channels = r.ci;
+      l.out_channels = r.co;
+      l.kernel = r.k;
+      l.stride = r.s;
+      l.padding = r.p;
+      l.output_padding = r.op;
+      l.neuron.discretisation = disc;
+      l.weight.assign(size_t(l.weight_count()), 0.f);
+      m.layers.push_back(std::move(l));
+    }
+    std::mt19937 rng(21);
+    for (auto& l : m.layers) {
+      std::normal_distribution<float> g(0.5f / float(l.in_channels),
+                                        1.5f / std::sqrt(float(l.in_channels) * l.kernel));
+      for (auto& w : l.weight) w = g(rng);
+    }
+    fill_fir_kernels(m);
+    int spikes = 0;
+    check_model(m, make_input(40, 18, 22, false, 22, 0.06), 2e-4, &spikes);
+    EXPECT_GT(spikes, 20) << "the last layer must be exercised";
   }
 }
 

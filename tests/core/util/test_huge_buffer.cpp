@@ -1,0 +1,32 @@
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <utility>
+
+#include "core/util/huge_buffer.h"
+
+namespace spikems {
+namespace {
+
+TEST(HugeBuffer, ZeroedAlignedAndMovable) {
+  for (size_t n : {size_t(1), size_t(1000), size_t(3) << 20}) {  // small and huge-page sized
+    HugeBuffer<float> b(n);
+    ASSERT_EQ(b.size(), n);
+    EXPECT_EQ(reinterpret_cast<uintptr_t>(b.data()) % 64, 0u);
+    for (size_t i = 0; i < n; i += 997) ASSERT_EQ(b[i], 0.f);
+    EXPECT_EQ(b[n - 1], 0.f);
+    b[n - 1] = 3.f;
+    HugeBuffer<float> c(std::move(b));
+    EXPECT_EQ(c.size(), n);
+    EXPECT_EQ(c[n - 1], 3.f);
+    c.assign(5);
+    EXPECT_EQ(c.size(), 5u);
+    EXPECT_EQ(c[4], 0.f);
+  }
+  HugeBuffer<int64_t> e;
+  EXPECT_EQ(e.size(), 0u);
+  EXPECT_EQ(e.data(), nullptr);
+}
+
+}  // namespace
+}  // namespace spikems
