@@ -135,6 +135,7 @@ void run_segment(benchmark::State& state, const ModelSpec& model, int64_t dur, i
   uint64_t events = 0, syn = 0, out_spikes = 0;
   std::vector<uint64_t> layer_spikes(model.layers.size(), 0);
   std::vector<size_t> layer_neurons(model.layers.size(), 0);
+  std::vector<double> layer_seconds(model.layers.size(), 0), layer_visits(model.layers.size(), 0);
   for (auto _ : state) {
     state.PauseTiming();
     SegmenterOptions so;
@@ -155,6 +156,8 @@ void run_segment(benchmark::State& state, const ModelSpec& model, int64_t dur, i
     for (size_t k = 0; k < st.size(); ++k) {
       layer_spikes[k] += st[k].out_spikes;
       layer_neurons[k] = st[k].neurons;
+      layer_seconds[k] += st[k].seconds;
+      layer_visits[k] += double(st[k].visits);
     }
     sim += double(seg->steps()) * 1e-3;
     events += ev.size();
@@ -169,6 +172,10 @@ void run_segment(benchmark::State& state, const ModelSpec& model, int64_t dur, i
   for (size_t k = 0; k < layer_spikes.size(); ++k)
     state.counters["rate_L" + std::to_string(k + 1)] =
         double(layer_spikes[k]) / (double(layer_neurons[k]) * sim * 1e3);
+  for (size_t k = 0; k < layer_seconds.size(); ++k)
+    state.counters["us_step_L" + std::to_string(k + 1)] = layer_seconds[k] / (sim * 1e3) * 1e6;
+  for (size_t k = 0; k < layer_visits.size(); ++k)
+    state.counters["visits_L" + std::to_string(k + 1)] = layer_visits[k] / (sim * 1e3);
   state.counters["Mev_per_s"] = double(events) / wall * 1e-6;
   state.counters["synops_per_ev"] = double(syn) / double(std::max<uint64_t>(events, 1));
   state.counters["out_spikes_per_step"] = double(out_spikes) / (sim * 1e3);

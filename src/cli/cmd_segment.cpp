@@ -137,14 +137,16 @@ Image mask_image(const PredictionFrame& f) {
 void print_stats(const Segmenter& seg, double wall_s) {
   const auto st = seg.network().stats();
   const double steps = double(std::max<int64_t>(1, seg.steps()));
-  std::fprintf(stderr, "\n%-6s %10s %12s %12s %10s %14s\n", "layer", "neurons", "in spikes",
-               "out spikes", "rate", "SynOps");
+  std::fprintf(stderr, "\n%-6s %10s %12s %12s %10s %14s %12s %9s\n", "layer", "neurons",
+               "in spikes", "out spikes", "rate", "SynOps", "visits/step", "us/step");
   uint64_t syn = 0;
   for (size_t k = 0; k < st.size(); ++k) {
     syn += st[k].synops;
-    std::fprintf(stderr, "%-6zu %10zu %12" PRIu64 " %12" PRIu64 " %10.5f %14" PRIu64 "\n", k + 1,
-                 st[k].neurons, st[k].in_spikes, st[k].out_spikes,
-                 double(st[k].out_spikes) / (double(st[k].neurons) * steps), st[k].synops);
+    std::fprintf(stderr,
+                 "%-6zu %10zu %12" PRIu64 " %12" PRIu64 " %10.5f %14" PRIu64 " %12.1f %9.1f\n",
+                 k + 1, st[k].neurons, st[k].in_spikes, st[k].out_spikes,
+                 double(st[k].out_spikes) / (double(st[k].neurons) * steps), st[k].synops,
+                 double(st[k].visits) / steps, st[k].seconds * 1e6 / steps);
   }
   std::fprintf(stderr, "%-6s %10s %12s %12s %10s %14" PRIu64 "\n", "total", "", "", "", "", syn);
   const double sim_s = double(seg.steps()) * double(seg.step_us()) * 1e-6;

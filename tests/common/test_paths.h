@@ -8,9 +8,11 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace spikems::test {
 
@@ -36,6 +38,18 @@ inline std::string shared_file(const std::string& rel) {
   GTEST_SKIP() << "shared material absent (" << rel    \
                << " not found beside the checkout); this test runs in CI"
 
+// Scratch folders made by this test program, removed when it exits (set
+// SPIKEMS_KEEP_SCRATCH=1 to keep them for a look after a failure).
+struct ScratchRegistry {
+  std::vector<std::filesystem::path> dirs;
+  ~ScratchRegistry() {
+    if (std::getenv("SPIKEMS_KEEP_SCRATCH")) return;
+    std::error_code ec;
+    for (const auto& d : dirs) std::filesystem::remove_all(d, ec);
+  }
+};
+inline ScratchRegistry scratch_registry;
+
 // A fresh, empty scratch folder unique to the running test.
 inline std::string scratch_dir() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
@@ -44,6 +58,7 @@ inline std::string scratch_dir() {
                              info->name() + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(p);
   std::filesystem::create_directories(p);
+  scratch_registry.dirs.push_back(p);
   return p.string();
 }
 

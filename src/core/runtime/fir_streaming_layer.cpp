@@ -25,6 +25,7 @@ FirStreamingLayer::FirStreamingLayer(const LayerSpec& l, int hin, int win)
   ring_.assign(npos * W_ * cout_, 0.f);
   horizon_.assign(npos, std::numeric_limits<int64_t>::min() / 2);
   next_.assign(npos, -1);
+  drive_.assign(npos * cout_ + 16);  // + the slack of scatter()'s blocks of 16
   wheel_.resize(W_);
 }
 
@@ -69,7 +70,8 @@ SPIKEMS_INLINE void FirStreamingLayer::fire_c(int64_t t, std::vector<uint32_t>& 
 template <int CT>
 SPIKEMS_INLINE void FirStreamingLayer::drive_c(int64_t t, const uint32_t* spikes, size_t n) {
   const int C = CT ? CT : cout_, K = int(eps_.size());
-  scatter_drive<CT>(spikes, n);
+  scatter<CT>(
+      spikes, n, drive_.data(), 0, [](uint32_t) {}, [](uint32_t, int) {});
   for (size_t w = 0; w < touched_bits_.size(); ++w) {
     for (uint64_t m = touched_bits_[w]; m != 0; m &= m - 1) {
       const uint32_t pos = uint32_t(w * 64 + size_t(std::countr_zero(m)));

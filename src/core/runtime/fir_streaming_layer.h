@@ -36,6 +36,7 @@ class FirStreamingLayer final : public StreamingLayer {
   void schedule(uint32_t pos, int64_t s);
 
   std::vector<float> eps_, nu_;
+  HugeBuffer<float> drive_;  // [position][C] (+16 spare), zero except at touched positions
   int W_ = 1;
   int64_t mask_ = 0;
   std::vector<float> ring_;                   // [pos][slot][c]: future potential

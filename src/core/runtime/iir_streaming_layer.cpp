@@ -51,24 +51,38 @@ IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int
   };
   table(a_, pow_a_);
   table(ar_, pow_ar_);
+  // Units: 16/C positions when C divides 16, so that a unit is one vector of 16 lanes.
+  const int C = cout_;
+  const int per_unit = (C < 16 && 16 % C == 0) ? 16 / C : 1;
+  unit_shift_ = std::countr_zero(unsigned(per_unit));
+  lanes_ = per_unit * C;
   const size_t npos = size_t(hout_) * wout_;
-  stride_ = size_t(slayer_ref_ ? 4 : 3) * cout_;
-  if (stride_ >= 16) stride_ = (stride_ + 15) / 16 * 16;
-  state_.assign(npos * stride_);
-  base_ = state_.data();
-  last_.assign(npos);
-  for (size_t i = 0; i < npos; ++i)
+  const size_t units = ((npos + size_t(per_unit) - 1) / size_t(per_unit) + 63) / 64 * 64;
+  const size_t n = units * size_t(lanes_);
+  a1_.assign(n);
+  b0_.assign(n + 16);  // + the slack of scatter()'s blocks of 16
+  r0_.assign(n);
+  if (slayer_ref_) r1_.assign(n);
+  last_.assign(units);
+  for (size_t i = 0; i < units; ++i)
     last_[i] = std::numeric_limits<int64_t>::min() / 4;  // state is 0: any gap works
-  active_bits_.assign((npos + 63) / 64, 0);
-  scratch_.assign(size_t(cout_), 0.f);
+  active_bits_.assign(units / 64, 0);
+  scratch_.assign(2 * size_t(lanes_), 0.f);
 }
 
 void IirStreamingLayer::record_potentials(bool on) {
   record_ = on;
   if (on && u_eval_.empty()) {
     u_eval_.assign(out_neurons(), 0.f);
-    eval_step_.assign(size_t(hout_) * wout_, -1);
+    eval_step_.assign(last_.size(), -1);
   }
+}
+
+void IirStreamingLayer::record(uint32_t unit, const float* u, int64_t t) {
+  const size_t first = size_t(unit) * size_t(lanes_);
+  const size_t end = std::min(first + size_t(lanes_), out_neurons());
+  std::copy(u, u + (end - first), &u_eval_[first]);
+  eval_step_[unit] = t;
 }
 
 void IirStreamingLayer::step(int64_t t, const uint32_t* s, size_t n, std::vector<uint32_t>& next) {
@@ -78,34 +92,6 @@ void IirStreamingLayer::step(int64_t t, const uint32_t* s, size_t n, std::vector
 SPIKEMS_MULTIVERSION void IirStreamingLayer::step_all(int64_t t, const uint32_t* s, size_t n,
                                                       std::vector<uint32_t>& next) {
   with_channels(cout_, [&](auto ct) SPIKEMS_INLINE_LAMBDA { step_c<ct()>(t, s, n, next); });
-}
-
-// d >= 1 steps on without drive.
-template <int CT>
-SPIKEMS_INLINE void IirStreamingLayer::advance(float* st, int64_t d) const {
-  advance_by<CT>(st, decay(d), ref_decay(d), float(d));
-}
-
-// The same with g = a^d, gr = ar^d, fd = d given.
-template <int CT>
-SPIKEMS_INLINE void IirStreamingLayer::advance_by(float* st, float g, float gr, float fd) const {
-  const int C = CT ? CT : cout_;
-  float* __restrict a1 = st;
-  float* __restrict b0 = st + C;
-  float* __restrict r0 = st + 2 * C;
-  for (int c = 0; c < C; ++c) {
-    a1[c] = g * (a1[c] + fd * b0[c]);
-    b0[c] = g * b0[c];
-  }
-  if (slayer_ref_) {
-    float* __restrict r1 = st + 3 * C;
-    for (int c = 0; c < C; ++c) {
-      r1[c] = gr * (r1[c] + fd * r0[c]);
-      r0[c] = gr * r0[c];
-    }
-  } else {
-    for (int c = 0; c < C; ++c) r0[c] = gr * r0[c];
-  }
 }
 
 namespace {
@@ -123,88 +109,107 @@ SPIKEMS_INLINE uint64_t at_least(const float* v, float th, int n) {
 }
 }  // namespace
 
+// Brings a unit's state from its last step to step t (nothing to do when it is there, as
+// active units are).
 template <int CT>
-SPIKEMS_INLINE bool IirStreamingLayer::may_reach_theta(const float* st) const {
-  const int C = CT ? CT : cout_;
-  const float* __restrict a1 = st;
-  const float* __restrict b0 = st + C;
-  int reach = 0;
-  for (int c = 0; c < C; ++c) {
-    const float p1 = std::max(a1[c], 0.f), p0 = std::max(b0[c], 0.f);
-    reach |= bound_a1_ * p1 + bound_b0_ * p0 >= bound_theta_;
+SPIKEMS_INLINE void IirStreamingLayer::catch_up(uint32_t unit, int64_t t) {
+  int64_t& last = last_[unit];
+  const int64_t d = t - last;
+  if (d == 0) return;
+  last = t;
+  constexpr int LT = CT == 0 ? 0 : (CT < 16 && 16 % CT == 0 ? 16 : CT);
+  const int L = LT ? LT : lanes_;
+  const size_t o = size_t(unit) * size_t(L);
+  const float g = decay(d), gr = ref_decay(d), fd = float(d);
+  float* __restrict a1 = &a1_[o];
+  float* __restrict b0 = &b0_[o];
+  float* __restrict r0 = &r0_[o];
+  for (int c = 0; c < L; ++c) {
+    a1[c] = g * (a1[c] + fd * b0[c]);
+    b0[c] = g * b0[c];
   }
-  return reach != 0;
+  if (slayer_ref_) {
+    float* __restrict r1 = &r1_[o];
+    for (int c = 0; c < L; ++c) r1[c] = gr * (r1[c] + fd * r0[c]);
+  }
+  for (int c = 0; c < L; ++c) r0[c] = gr * r0[c];
+}
+
+// One unit from step t to t+1: appends its spikes of t+1; returns whether it stays active.
+template <int CT>
+SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t,
+                                              std::vector<uint32_t>& next) {
+  constexpr int LT = CT == 0 ? 0 : (CT < 16 && 16 % CT == 0 ? 16 : CT);
+  const int L = LT ? LT : lanes_;
+  const size_t o = size_t(unit) * size_t(L);
+  const float g1 = decay(1), gr1 = ref_decay(1);
+  const float cs = cs_f_, cref = cref_f_, ba = bound_a1_, bb = bound_b0_;
+  float u_local[LT ? LT : 1], bnd_local[LT ? LT : 1];
+  float* __restrict u = LT ? u_local : scratch_.data();
+  float* __restrict bnd = LT ? bnd_local : scratch_.data() + L;
+  float* __restrict a1 = &a1_[o];
+  float* __restrict b0 = &b0_[o];
+  float* __restrict r0 = &r0_[o];
+  if (slayer_ref_) {
+    float* __restrict r1 = &r1_[o];
+    for (int c = 0; c < L; ++c) {
+      r1[c] = gr1 * (r1[c] + r0[c]);
+      r0[c] = gr1 * r0[c];
+    }
+  } else {
+    for (int c = 0; c < L; ++c) r0[c] = gr1 * r0[c];
+  }
+  const float* __restrict r = slayer_ref_ ? &r1_[o] : r0;
+  for (int c = 0; c < L; ++c) {
+    const float x = g1 * (a1[c] + b0[c]), y = g1 * b0[c];
+    a1[c] = x;
+    b0[c] = y;
+    u[c] = cs * x + cref * r[c];
+    bnd[c] = ba * std::max(x, 0.f) + bb * std::max(y, 0.f);
+  }
+  last_[unit] = t + 1;
+  if (record_) record(unit, u, t + 1);
+  bool reach = false;
+  // Lanes past the last position (a partial last unit) hold zeros and never reach theta > 0.
+  for (int c0 = 0; c0 < L; c0 += 64) {
+    const int len = std::min(64, L - c0);
+    for (uint64_t f = at_least(u + c0, theta_, len); f != 0; f &= f - 1) {
+      const int c = c0 + std::countr_zero(f);
+      next.push_back(uint32_t(o) + uint32_t(c));
+      r0[c] += spike_inc_;  // the spike's refractory response starts at t+2
+    }
+    reach |= at_least(bnd + c0, bound_theta_, len) != 0;
+  }
+  return reach;
 }
 
 template <int CT>
 SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes, size_t n,
                                               std::vector<uint32_t>& next) {
+  // The drive of t goes straight into b0, each unit first brought up to step t.
   const int C = CT ? CT : cout_;
-  scatter_drive<CT>(spikes, n);
+  scatter<CT>(
+      spikes, n, b0_.data(), unit_shift_,
+      [&](uint32_t unit) SPIKEMS_INLINE_LAMBDA { catch_up<CT>(unit, t); },
+      [&](uint32_t pos, int len) SPIKEMS_INLINE_LAMBDA {
+        __builtin_prefetch(&last_[pos >> unit_shift_], 1);
+        for (int j = 0; j < len * C; j += 16) {
+          __builtin_prefetch(&a1_[size_t(pos) * C + size_t(j)], 1);
+          __builtin_prefetch(&r0_[size_t(pos) * C + size_t(j)], 1);
+        }
+      });
 
-  // One pass over the touched and active positions, in address order.
-  float u_local[CT ? CT : 1];
-  float* __restrict u = CT ? u_local : scratch_.data();
-  const float th = theta_, inc = spike_inc_, cs = cs_f_, cref = cref_f_;
-  const float g1 = decay(1), gr1 = ref_decay(1);
-  const size_t nwords = active_bits_.size();
+  // Every unit reached or active is now at step t: one pass in address order.
   const size_t n0 = next.size();
-  auto prefetch_word = [&](size_t w) SPIKEMS_INLINE_LAMBDA {
-    for (uint64_t m = touched_bits_[w] | active_bits_[w]; m != 0; m &= m - 1) {
-      const uint32_t pos = uint32_t(w * 64 + size_t(std::countr_zero(m)));
-      const float* st = state(pos);
-      for (size_t off = 0; off < stride_; off += 16) __builtin_prefetch(st + off, 1);
-    }
-  };
-  for (size_t w = 0; w < nwords; ++w) {
-    const uint64_t tw = touched_bits_[w], aw = active_bits_[w];
-    if ((tw | aw) == 0) continue;
-    if (w + 1 < nwords) prefetch_word(w + 1);
+  for (size_t w = 0; w < active_bits_.size(); ++w) {
+    const uint64_t aw = active_bits_[w], m = touched_bits_[w] | aw;
+    if (m == 0) continue;
     touched_bits_[w] = 0;
+    visits_ += uint64_t(std::popcount(m)) << unit_shift_;
     uint64_t keep = 0;
-    for (uint64_t m = tw | aw; m != 0; m &= m - 1) {
-      const int b = std::countr_zero(m);
-      const uint32_t pos = uint32_t(w * 64 + size_t(b));
-      float* st = state(pos);
-      if ((tw >> b) & 1) {
-        const int64_t d = t - last_[pos];  // >= 0: no position is ahead of t here
-        if (d > 0) advance<CT>(st, d);     // as of t
-        float* __restrict b0 = st + C;
-        float* __restrict in = &drive_[size_t(pos) * C];
-        for (int c = 0; c < C; ++c) {
-          b0[c] += in[c];
-          in[c] = 0.f;  // drive_ stays zero outside marked positions
-        }
-        if (!((aw >> b) & 1) && !may_reach_theta<CT>(st)) {
-          last_[pos] = t;  // stays idle, expressed as of t
-          continue;
-        }
-      }
-      advance_by<CT>(st, g1, gr1, 1.f);  // as of t+1
-      last_[pos] = t + 1;
-      const float* __restrict a1 = st;
-      float* __restrict r0 = st + 2 * C;
-      const float* __restrict r = slayer_ref_ ? st + 3 * C : r0;
-      for (int c = 0; c < C; ++c) u[c] = cs * a1[c] + cref * r[c];
-      if (record_) {
-        std::copy(u, u + C, &u_eval_[size_t(pos) * C]);
-        eval_step_[pos] = t + 1;
-      }
-      const uint32_t first = pos * uint32_t(C);
-      if (CT != 0 || C <= 64) {
-        for (uint64_t f = at_least(u, th, C); f != 0; f &= f - 1) {
-          const int c = std::countr_zero(f);
-          next.push_back(first + uint32_t(c));
-          r0[c] += inc;  // the spike's refractory response starts at t+2
-        }
-      } else {
-        for (int c = 0; c < C; ++c)
-          if (u[c] >= th) {
-            next.push_back(first + uint32_t(c));
-            r0[c] += inc;
-          }
-      }
-      if (may_reach_theta<CT>(st)) keep |= uint64_t(1) << b;
+    for (uint64_t mm = m; mm != 0; mm &= mm - 1) {
+      const int b = std::countr_zero(mm);
+      if (update<CT>(uint32_t(w * 64 + size_t(b)), t, next)) keep |= uint64_t(1) << b;
     }
     active_count_ += size_t(std::popcount(keep));
     active_count_ -= size_t(std::popcount(aw));
@@ -215,16 +220,14 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
 }
 
 float IirStreamingLayer::potential(int64_t t, uint32_t neuron) const {
-  const uint32_t pos = neuron / uint32_t(cout_);
-  if (record_ && eval_step_[pos] == t) return u_eval_[neuron];
-  const size_t C = size_t(cout_), c = neuron % uint32_t(cout_);
-  const float* st = state(pos);
-  const int64_t d = t - last_[pos];
-  const double a1 = st[c], b0 = st[C + c], r0 = st[2 * C + c];
+  const uint32_t unit = neuron / uint32_t(lanes_);
+  if (record_ && eval_step_[unit] == t) return u_eval_[neuron];
+  const int64_t d = t - last_[unit];
+  const double a1 = a1_[neuron], b0 = b0_[neuron], r0 = r0_[neuron];
   const double g = std::pow(a_, double(d)), gr = std::pow(ar_, double(d));
   const double psp = cs_ * g * (a1 + double(d) * b0);
   const double ref =
-      slayer_ref_ ? cref_ * gr * (double(st[3 * C + c]) + double(d) * r0) : cref_ * gr * r0;
+      slayer_ref_ ? cref_ * gr * (double(r1_[neuron]) + double(d) * r0) : cref_ * gr * r0;
   return float(psp + ref);
 }
 

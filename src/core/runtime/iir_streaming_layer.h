@@ -1,15 +1,21 @@
 // IIR neurons (the exact recursions of the continuous kernels), event-driven.
 //
-// Per neuron: the alpha psp as two state variables, the refractory response as one (SpikeMS
-// form) or two (SLAYER's alpha form), advanced lazily in closed form over skipped steps.
+// Per neuron: the alpha psp as two state variables (a1, b0), the refractory response as one
+// (SpikeMS form, r0) or two (SLAYER's alpha form, r1 and r0), advanced lazily in closed form
+// over skipped steps. Each variable is an array of its own, channels-last, so the variable of
+// consecutive positions is contiguous.
 //
-// A step is one pass over the positions that matter, in address order: those that receive
-// input this step and those still "active" (a cheap upper bound on their future psp can reach
-// theta; refractory terms are never positive). The input spikes first scatter their weights
-// into a drive buffer (fixed loops, no state touched); then each such position's state is
-// read and written once: advanced to t, given its drive, and, if it may reach theta, advanced
-// to t+1 and compared with theta. Idle and decaying neurons cost nothing, and the spikes come
-// out sorted, so the next layer's pass also walks its state forward.
+// The state is kept per *unit*: one position, or 16/C consecutive positions when C divides 16
+// (the output layer's two channels: 8 positions), so that a unit is a whole vector of lanes
+// and the state of consecutive positions is contiguous in each array, indexed by neuron.
+//
+// A step has two passes. The scatter adds the input spikes' weights straight into b0 (the
+// drive of step t), after bringing a unit's state up to step t the first time the step
+// reaches it. The update then visits, in address order, every unit reached this step or
+// still "active" (a cheap upper bound on its future psp reaches theta; refractory terms are
+// never positive): all of them are at step t, so one uniform recursion step takes them to
+// t+1, with no branch per neuron; the spikes of t+1 are the neurons whose potential reaches
+// theta. Idle and decaying neurons cost nothing, and the spikes come out sorted.
 #pragma once
 
 #include <cmath>
@@ -25,7 +31,7 @@ class IirStreamingLayer final : public StreamingLayer {
   void step(int64_t t, const uint32_t* spikes, size_t n, std::vector<uint32_t>& next) override;
   void record_potentials(bool on) override;
   float potential(int64_t t, uint32_t neuron) const override;
-  size_t busy_positions() const override { return active_count_; }
+  size_t busy_positions() const override { return active_count_ << unit_shift_; }
 
  private:
   SPIKEMS_MULTIVERSION void step_all(int64_t t, const uint32_t* spikes, size_t n,
@@ -33,13 +39,10 @@ class IirStreamingLayer final : public StreamingLayer {
   template <int CT>
   void step_c(int64_t t, const uint32_t* spikes, size_t n, std::vector<uint32_t>& next);
   template <int CT>
-  void advance(float* st, int64_t d) const;
+  void catch_up(uint32_t unit, int64_t t);
   template <int CT>
-  void advance_by(float* st, float g, float gr, float fd) const;
-  template <int CT>
-  bool may_reach_theta(const float* st) const;
-  float* state(uint32_t pos) { return base_ + size_t(pos) * stride_; }
-  const float* state(uint32_t pos) const { return base_ + size_t(pos) * stride_; }
+  bool update(uint32_t unit, int64_t t, std::vector<uint32_t>& next);
+  void record(uint32_t unit, const float* u, int64_t t);
   // a^d and ar^d: tables until they drop below the smallest normal float, 0 beyond (pow()
   // only for kernels so slow that the table would exceed 65536 entries).
   SPIKEMS_INLINE float decay(int64_t d) const {
@@ -55,15 +58,15 @@ class IirStreamingLayer final : public StreamingLayer {
   bool slayer_ref_;
   float cs_f_, cref_f_, spike_inc_, bound_a1_, bound_b0_, bound_theta_;
   std::vector<float> pow_a_, pow_ar_;
-  // Per position [a1 | b0 | r0 | r1] x C, padded to whole cache lines when C >= 16 so that a
-  // position's state is a few lines it owns alone.
-  size_t stride_;
-  HugeBuffer<float> state_;            // 64-byte aligned
-  float* base_ = nullptr;              // state_.data()
-  HugeBuffer<int64_t> last_;           // step each position's state is expressed at
-  std::vector<uint64_t> active_bits_;  // one bit per position
+  int unit_shift_ = 0;  // a unit is 2^unit_shift_ positions
+  int lanes_ = 0;       // neurons per unit
+  // [neuron] each (a unit's lanes contiguous), units rounded up to a whole bitmap word,
+  // 64-byte aligned; b0_ has the scatter's 16 spare floats. r1_ only for SLAYER's form.
+  HugeBuffer<float> a1_, b0_, r0_, r1_;
+  HugeBuffer<int64_t> last_;           // per unit: the step its state is expressed at
+  std::vector<uint64_t> active_bits_;  // one bit per unit
   size_t active_count_ = 0;
-  std::vector<float> scratch_;  // C floats when C is not a compile-time constant
+  std::vector<float> scratch_;  // 2 x lanes when they are not a compile-time constant
   bool record_ = false;
   std::vector<float> u_eval_;
   std::vector<int64_t> eval_step_;

@@ -86,7 +86,6 @@ StreamingLayer::StreamingLayer(const LayerSpec& l, int hin, int win)
                   j * size_t(cout_) + size_t(co)] = weight(ci, co, ky, kx_seqs[q][j]);
   for (int x = 0; x < win_; ++x) col_run_[size_t(x)].weights = seq_of[size_t(x)] * block;
   const size_t npos = size_t(hout_) * wout_;
-  drive_.assign(npos * cout_ + 16);  // + the slack of scatter_drive's blocks of 16
   touched_bits_.assign((npos + 63) / 64, 0);
 }
 

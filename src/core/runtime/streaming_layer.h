@@ -11,6 +11,8 @@
 // psp state; both use scatter() below for the synaptic drive.
 #pragma once
 
+#include <algorithm>
+#include <bit>
 #include <cstdint>
 #include <memory>
 #include <type_traits>
@@ -58,6 +60,9 @@ class StreamingLayer {
   size_t out_neurons() const { return size_t(hout_) * wout_ * cout_; }
   // Synaptic operations so far: every (input spike, output neuron) pair a weight was added for.
   uint64_t synops() const { return synops_; }
+  // Position visits so far: each time a position's state was read and written (an output
+  // position holds the layer's C neurons). The measure of the update work besides SynOps.
+  uint64_t visits() const { return visits_; }
   // Spikes emitted up to the current step (those step() computed ahead are not counted yet).
   uint64_t spikes() const { return spikes_ - ahead_; }
 
@@ -65,48 +70,87 @@ class StreamingLayer {
                                                 int in_height, int in_width);
 
  protected:
-  // The synaptic drive of one step: for each input spike and each output position it
-  // reaches, drive_[position] += the weights of that tap, and the position is marked in
-  // touched_bits_. drive_ is all zeros outside the marked positions: whoever consumes a
-  // marked position's drive zeroes it and clears the mark. CT is the channel count when known
-  // at compile time (0: cout_).
+  // The synaptic input of one step: for each input spike and each output position it
+  // reaches, target[position*C .. +C) += the weights of that tap. Marks are kept per unit of
+  // 2^unit_shift consecutive positions: each unit reached is marked in touched_bits_, and
+  // on_new(unit) is
+  // called the first time it is reached in the step, before anything is added to it (the IIR
+  // layer brings its state up to date there). target needs 16 spare floats at its end. CT is
+  // the channel count when known at compile time (0: cout_).
   //
   // The output columns one input column reaches are consecutive (o = (x + p - kx) / s for a
   // convolution, s*x - p + kx for a transposed one), so per output row an input spike adds
   // one contiguous run of len*C weights (laid out in that order in wseg_) to len
   // consecutive positions: one vector loop and one or two bitmap words per row.
-  template <int CT>
-  SPIKEMS_INLINE void scatter_drive(const uint32_t* spikes, size_t n) {
+  template <int CT, class OnNew, class OnPrefetch>
+  SPIKEMS_INLINE void scatter(const uint32_t* spikes, size_t n, float* target, int unit_shift,
+                              OnNew&& on_new, OnPrefetch&& on_prefetch) {
     const int C = CT ? CT : cout_;
     uint64_t taps = 0;
+    auto mark = [&](size_t word, uint64_t bits) SPIKEMS_INLINE_LAMBDA {
+      uint64_t fresh = bits & ~touched_bits_[word];
+      if (fresh == 0) return;
+      touched_bits_[word] |= fresh;
+      for (; fresh != 0; fresh &= fresh - 1)
+        on_new(uint32_t(word * 64 + size_t(std::countr_zero(fresh))));
+    };
+    // Spikes of one input position (its channels, adjacent in sorted input) reach the same
+    // output positions: the index arithmetic and the marks are done once per group.
+    groups_.clear();
     for (size_t i = 0; i < n; ++i) {
       const uint32_t pos = div_cin_(spikes[i]);
-      const uint32_t ci = spikes[i] - pos * uint32_t(cin_);
+      if (groups_.empty() || groups_.back().pos != pos) groups_.push_back({pos, uint32_t(i)});
+    }
+    const size_t ng = groups_.size();
+    groups_.push_back({0, uint32_t(n)});
+    // The state of the positions a group reaches is often far from the cache (noise events
+    // land anywhere): it is requested a few groups early so that the misses overlap.
+    constexpr size_t kAhead = 4;
+    auto prefetch = [&](uint32_t pos) SPIKEMS_INLINE_LAMBDA {
+      const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
+      const ColumnRun& run = col_run_[x];
+      for (int ry = row_begin_[y], r1 = row_begin_[y + 1]; ry < r1; ++ry) {
+        const uint32_t op =
+            uint32_t(row_taps_[size_t(ry)].first) * uint32_t(wout_) + uint32_t(run.first);
+        __builtin_prefetch(target + size_t(op) * C, 1);
+        on_prefetch(op, run.len);
+      }
+    };
+    for (size_t g = 0; g < std::min(ng, kAhead); ++g) prefetch(groups_[g].pos);
+    for (size_t g = 0; g < ng; ++g) {
+      if (g + kAhead < ng) prefetch(groups_[g + kAhead].pos);
+      const uint32_t pos = groups_[g].pos, base = pos * uint32_t(cin_);
+      const size_t i = groups_[g].first, e = groups_[g + 1].first;
       const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
       const ColumnRun& run = col_run_[x];
       const int len = run.len;
-      if (len == 0) continue;
       const int r0 = row_begin_[y], r1 = row_begin_[y + 1];
-      taps += uint64_t(r1 - r0) * uint64_t(len);
-      const float* wci = &wseg_[run.weights + size_t(ci) * seg_ci_stride_];
+      taps += uint64_t(r1 - r0) * uint64_t(len) * uint64_t(e - i);
       const uint64_t run_bits = (uint64_t(1) << len) - 1;  // len <= kernel <= 32
-      for (int ry = r0; ry < r1; ++ry) {
+      for (int ry = r0; ry < r1 && len > 0; ++ry) {
         const auto [oy, ky] = row_taps_[size_t(ry)];
         const uint32_t op = uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first);
-        touched_bits_[op >> 6] |= run_bits << (op & 63);
-        if ((op & 63) + uint32_t(len) > 64)
-          touched_bits_[(op >> 6) + 1] |= run_bits >> (64 - (op & 63));
-        float* __restrict d = &drive_[size_t(op) * C];
-        const float* __restrict w = wci + size_t(ky) * seg_ky_stride_;
-        // Whole blocks of 16: the weights are zero-padded, so the positions past the run get
-        // +0 (drive_ has 16 spare floats at its end).
-        if (CT != 0 && CT % 16 == 0) {
-          for (int j = 0; j < len; ++j)
-            for (int c = 0; c < CT; ++c) d[j * CT + c] += w[j * CT + c];
+        if (unit_shift == 0) {
+          mark(op >> 6, run_bits << (op & 63));
+          if ((op & 63) + uint32_t(len) > 64) mark((op >> 6) + 1, run_bits >> (64 - (op & 63)));
         } else {
-          const int m = len * C;
-          for (int j = 0; j < m; j += 16)
-            for (int jj = 0; jj < 16; ++jj) d[j + jj] += w[j + jj];
+          const uint32_t u1 = (op + uint32_t(len) - 1) >> unit_shift;
+          for (uint32_t u = op >> unit_shift; u <= u1; ++u) mark(u >> 6, uint64_t(1) << (u & 63));
+        }
+        float* __restrict d = target + size_t(op) * C;
+        const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
+        for (size_t k = i; k < e; ++k) {
+          const float* __restrict w = wrow + size_t(spikes[k] - base) * seg_ci_stride_;
+          // Whole blocks of 16: the weights are zero-padded, so the positions past the run
+          // get +0, which changes nothing (target has 16 spare floats at its end).
+          if (CT != 0 && CT % 16 == 0) {
+            for (int j = 0; j < len; ++j)
+              for (int c = 0; c < CT; ++c) d[j * CT + c] += w[j * CT + c];
+          } else {
+            const int m = len * C;
+            for (int j = 0; j < m; j += 16)
+              for (int jj = 0; jj < 16; ++jj) d[j + jj] += w[j + jj];
+          }
         }
       }
     }
@@ -129,9 +173,13 @@ class StreamingLayer {
   std::vector<ColumnRun> col_run_;
   std::vector<float> wseg_;
   size_t seg_ky_stride_ = 0, seg_ci_stride_ = 0;
-  HugeBuffer<float> drive_;  // [position][C] (+16 spare), zero except at marked positions
-  std::vector<uint64_t> touched_bits_;  // one bit per output position
+  std::vector<uint64_t> touched_bits_;  // one bit per output unit: reached this step
+  struct Group {
+    uint32_t pos, first;  // an input position and its first spike in the step's list
+  };
+  std::vector<Group> groups_;
   uint64_t synops_ = 0;
+  uint64_t visits_ = 0;
   uint64_t spikes_ = 0;  // all computed, including the step ahead
   uint64_t ahead_ = 0;   // spikes computed for the step after the current one
 

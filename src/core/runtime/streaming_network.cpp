@@ -1,5 +1,7 @@
 #include "core/runtime/streaming_network.h"
 
+#include <chrono>
+
 #include <algorithm>
 
 #include "core/util/error.h"
@@ -30,6 +32,7 @@ StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width)
   now_.resize(layers_.size());
   ahead_.resize(layers_.size());
   in_spikes_.assign(layers_.size(), 0);
+  seconds_.assign(layers_.size(), 0.0);
 }
 
 TaskPool::TaskPool(int threads) {
@@ -91,7 +94,10 @@ const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>&
   auto run = [&](int k) {
     const std::vector<uint32_t>& in = k == 0 ? input : now_[size_t(k - 1)];
     ahead_[size_t(k)].clear();
+    const auto t0 = std::chrono::steady_clock::now();
     layers_[size_t(k)]->step(t_, in.data(), in.size(), ahead_[size_t(k)]);
+    seconds_[size_t(k)] +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
   if (pool_)
     pool_->run(L, run);
@@ -112,6 +118,8 @@ std::vector<LayerStats> StreamingNetwork::stats() const {
     s[k].in_spikes = in_spikes_[k];
     s[k].out_spikes = layers_[k]->spikes();
     s[k].neurons = layers_[k]->out_neurons();
+    s[k].seconds = seconds_[k];
+    s[k].visits = layers_[k]->visits();
   }
   return s;
 }

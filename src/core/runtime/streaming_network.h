@@ -24,6 +24,8 @@ struct LayerStats {
   uint64_t in_spikes = 0;   // spikes that entered the layer
   uint64_t out_spikes = 0;  // spikes the layer emitted
   size_t neurons = 0;
+  uint64_t visits = 0;  // position visits (state reads and writes of a pixel's C neurons)
+  double seconds = 0;   // wall time spent in the layer's steps
 };
 
 // Runs n independent tasks on a few threads and waits for them (the caller works too).
@@ -81,6 +83,7 @@ class StreamingNetwork {
   // layers write the step after that into.
   std::vector<std::vector<uint32_t>> emitted_, now_, ahead_;
   std::vector<uint64_t> in_spikes_;
+  std::vector<double> seconds_;  // per layer
   std::unique_ptr<TaskPool> pool_;
 };
 

@@ -267,9 +267,10 @@ TEST(StreamingNetwork, ThreadsGiveIdenticalResults) {
   }
 }
 
-// Geometries and channel counts beside SpikeMS's: stride 1 with a 5x5 kernel, a 4x4 transposed
-// kernel, channel counts the runtime has no specialised code for (3, 5, 70: the generic loops,
-// more than 64 channels per position), FIR and IIR.
+// Geometries and channel counts beside SpikeMS's: stride 1 with 5x5 and 4x4 kernels, a 4x4
+// transposed kernel, channel counts the runtime has no specialised code for (3, 5, 70: the
+// generic loops, more than 64 channels per position; 8: IIR units of two positions, the last
+// one half outside the 15x19 output), FIR and IIR.
 TEST(StreamingNetwork, OtherGeometriesAndChannelCountsMatchDense) {
   for (auto disc : {Discretisation::FIR, Discretisation::IIR}) {
     ModelSpec m;
@@ -280,7 +281,8 @@ TEST(StreamingNetwork, OtherGeometriesAndChannelCountsMatchDense) {
     };
     for (const Row& r :
          {Row{LayerKind::Conv, 2, 5, 5, 1, 2, 0}, Row{LayerKind::Conv, 5, 70, 3, 2, 1, 0},
-          Row{LayerKind::ConvTranspose, 70, 3, 4, 2, 1, 0}}) {
+          Row{LayerKind::ConvTranspose, 70, 3, 4, 2, 1, 0},
+          Row{LayerKind::Conv, 3, 8, 4, 1, 0, 0}}) {
       LayerSpec l;
       l.kind = r.kind;
       l.in_channels = r.ci;
