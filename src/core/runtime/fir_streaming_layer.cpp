@@ -51,6 +51,7 @@ SPIKEMS_INLINE void FirStreamingLayer::fire_c(int64_t t, std::vector<uint32_t>& 
   for (size_t i = 0; i < bucket.size(); ++i) {
     const uint32_t pos = bucket[i];
     if (next_[pos] != t) continue;  // rescheduled since
+    ++visits_;
     const float* u = slot(pos, t);
     for (int c = 0; c < C; ++c) {
       if (!(u[c] >= theta_)) continue;
@@ -73,6 +74,7 @@ SPIKEMS_INLINE void FirStreamingLayer::drive_c(int64_t t, const uint32_t* spikes
   scatter<CT>(
       spikes, n, drive_.data(), 0, [](uint32_t) {}, [](uint32_t, int) {});
   for (size_t w = 0; w < touched_bits_.size(); ++w) {
+    visits_ += uint64_t(std::popcount(touched_bits_[w]));
     for (uint64_t m = touched_bits_[w]; m != 0; m &= m - 1) {
       const uint32_t pos = uint32_t(w * 64 + size_t(std::countr_zero(m)));
       float* __restrict d = &drive_[size_t(pos) * C];

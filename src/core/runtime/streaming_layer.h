@@ -73,10 +73,10 @@ class StreamingLayer {
   // The synaptic input of one step: for each input spike and each output position it
   // reaches, target[position*C .. +C) += the weights of that tap. Marks are kept per unit of
   // 2^unit_shift consecutive positions: each unit reached is marked in touched_bits_, and
-  // on_new(unit) is
-  // called the first time it is reached in the step, before anything is added to it (the IIR
-  // layer brings its state up to date there). target needs 16 spare floats at its end. CT is
-  // the channel count when known at compile time (0: cout_).
+  // on_new(unit) is called the first time it is reached in the step, before anything is added
+  // to it (the IIR layer brings its state up to date there); on_prefetch(position, len) is
+  // called a few groups ahead for the runs to come. target needs 16 spare floats at its end.
+  // CT is the channel count when known at compile time (0: cout_).
   //
   // The output columns one input column reaches are consecutive (o = (x + p - kx) / s for a
   // convolution, s*x - p + kx for a transposed one), so per output row an input spike adds

@@ -308,6 +308,32 @@ TEST(StreamingNetwork, OtherGeometriesAndChannelCountsMatchDense) {
   }
 }
 
+// Visits count the positions whose state a step reads and writes. One input spike into a
+// silent layer (zero weights): the positions it reaches are visited once, i.e. SynOps / C,
+// and none after; the output layer's IIR units of 8 positions count 8 positions each.
+TEST(StreamingNetwork, VisitsCountThePositionsReached) {
+  for (auto disc : {Discretisation::FIR, Discretisation::IIR}) {
+    ModelSpec m = spikems_architecture(true, disc);
+    auto first = StreamingLayer::create(m.layers[0], m.time_step_ms, 16, 16);  // 2 -> 16, conv
+    std::vector<uint32_t> out, in = {uint32_t((5 * 16 + 7) * 2)};              // pixel (7, 5), ON
+    first->step(0, in.data(), in.size(), out);
+    ASSERT_EQ(first->synops() % 16, 0u);
+    EXPECT_EQ(first->visits(), first->synops() / 16);
+    EXPECT_EQ(first->visits(), 4u);  // rows 2,3 x columns 3,4 of the 8x8 output (s 2, p 1)
+    for (int t = 1; t < 5; ++t) first->step(t, nullptr, 0, out);
+    EXPECT_EQ(first->visits(), 4u) << "nothing is active: no further visits";
+    EXPECT_TRUE(out.empty());
+
+    auto last = StreamingLayer::create(m.layers[5], m.time_step_ms, 8, 8);  // 16 -> 2, convT
+    in = {uint32_t((3 * 8 + 3) * 16 + 4)};
+    last->step(0, in.data(), in.size(), out);
+    EXPECT_EQ(last->synops(), 18u);  // 3 x 3 outputs x 2 channels
+    // FIR: the 9 positions; IIR: units of 8 positions (columns 5-7 of a 16-wide output lie in
+    // one unit per row), 3 rows.
+    EXPECT_EQ(last->visits(), disc == Discretisation::FIR ? 9u : 24u);
+  }
+}
+
 TEST(StreamingNetwork, RejectsInputTooSmall) {
   ModelSpec m = spikems_architecture(false);
   EXPECT_THROW(StreamingNetwork(m, 10, 10), Error);
