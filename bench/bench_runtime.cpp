@@ -250,6 +250,63 @@ BENCHMARK(BM_StreamingSegmentUnscaled)
     ->UseRealTime()
     ->Iterations(1);
 
+// One layer on its own: the input each layer of the 0.5 % IIR model receives in 200 ms of the
+// 1 M ev/s stream is recorded once, then replayed into a fresh layer per iteration. Less noisy
+// than the whole pipeline, for comparing versions of a layer's code.
+struct LayerInputs {
+  std::vector<std::vector<std::vector<uint32_t>>> steps;  // [layer][step] input spikes
+  std::vector<std::pair<int, int>> in_size;               // [layer] (height, width)
+  ModelSpec model;
+};
+const LayerInputs& layer_inputs() {
+  static LayerInputs r = [] {
+    LayerInputs li;
+    li.model = bench_model(1, Discretisation::IIR);
+    StreamingNetwork net(li.model, kH, kW);
+    const size_t nl = net.layer_count();
+    li.steps.resize(nl);
+    for (size_t k = 0; k < nl; ++k)
+      li.in_size.push_back({net.layer(k).in_height(), net.layer(k).in_width()});
+    EventStream ev = synthetic_events(1e6, 200000, 42);
+    size_t i = 0;
+    for (int64_t s = 0; s < 200; ++s) {
+      std::vector<uint32_t> in;
+      for (; i < ev.size() && ev.t[i] < (s + 1) * 1000; ++i)
+        in.push_back((uint32_t(ev.y[i]) * kW + ev.x[i]) * 2 + ev.p[i]);
+      std::sort(in.begin(), in.end());
+      in.erase(std::unique(in.begin(), in.end()), in.end());
+      li.steps[0].push_back(in);
+      net.step(in);
+      for (size_t k = 1; k < nl; ++k) li.steps[k].push_back(net.layer_spikes(k - 1));
+    }
+    return li;
+  }();
+  return r;
+}
+void BM_LayerReplay(benchmark::State& state) {
+  const LayerInputs& li = layer_inputs();
+  const size_t k = size_t(state.range(0)) - 1;
+  const auto& steps = li.steps[k];
+  std::vector<uint32_t> out;
+  uint64_t visits = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    auto layer =
+        StreamingLayer::create(li.model.layers[k], 1.0, li.in_size[k].first, li.in_size[k].second);
+    state.ResumeTiming();
+    for (size_t t = 0; t < steps.size(); ++t) {
+      out.clear();
+      layer->step(int64_t(t), steps[t].data(), steps[t].size(), out);
+    }
+    visits = layer->visits();
+  }
+  state.counters["us_per_step"] = benchmark::Counter(
+      double(steps.size()) * 1e-6,
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["visits_per_step"] = double(visits) / double(steps.size());
+}
+BENCHMARK(BM_LayerReplay)->DenseRange(1, 6)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 // Baseline: the dense reference forward (every neuron, every step) on 10 steps of the 1 M ev/s
 // stream.
 void BM_DenseReference(benchmark::State& state) {

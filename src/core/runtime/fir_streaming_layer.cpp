@@ -71,8 +71,9 @@ SPIKEMS_INLINE void FirStreamingLayer::fire_c(int64_t t, std::vector<uint32_t>& 
 template <int CT>
 SPIKEMS_INLINE void FirStreamingLayer::drive_c(int64_t t, const uint32_t* spikes, size_t n) {
   const int C = CT ? CT : cout_, K = int(eps_.size());
-  scatter<CT>(
-      spikes, n, drive_.data(), 0, [](uint32_t) {}, [](uint32_t, int) {});
+  mark_reached(spikes, n, 0);
+  float* drive = drive_.data();
+  add_drive<CT>(spikes, [&](uint32_t op) SPIKEMS_INLINE_LAMBDA { return drive + size_t(op) * C; });
   for (size_t w = 0; w < touched_bits_.size(); ++w) {
     visits_ += uint64_t(std::popcount(touched_bits_[w]));
     for (uint64_t m = touched_bits_[w]; m != 0; m &= m - 1) {

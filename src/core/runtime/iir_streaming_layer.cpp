@@ -60,7 +60,7 @@ IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int
   const size_t units = ((npos + size_t(per_unit) - 1) / size_t(per_unit) + 63) / 64 * 64;
   const size_t n = units * size_t(lanes_);
   a1_.assign(n);
-  b0_.assign(n + 16);  // + the slack of scatter()'s blocks of 16
+  b0_.assign(n);
   r0_.assign(n);
   if (slayer_ref_) r1_.assign(n);
   last_.assign(units);
@@ -68,6 +68,11 @@ IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int
     last_[i] = std::numeric_limits<int64_t>::min() / 4;  // state is 0: any gap works
   active_bits_.assign(units / 64, 0);
   scratch_.assign(2 * size_t(lanes_), 0.f);
+  spike_buf_.assign(n + 16);  // every neuron at most once per step, + compress()'s spare
+  if (unit_shift_ > 0) prepare_unit_weights(unit_shift_);
+  // One slot per unit at most, + the spare floats of whole blocks past a run.
+  drive_.assign(n + 16 * size_t(std::max(unit_blocks_, 1)) + 64);
+  rank_base_.assign(units / 64 + 1, 0);
 }
 
 void IirStreamingLayer::record_potentials(bool on) {
@@ -78,20 +83,45 @@ void IirStreamingLayer::record_potentials(bool on) {
   }
 }
 
-void IirStreamingLayer::record(uint32_t unit, const float* u, int64_t t) {
-  const size_t first = size_t(unit) * size_t(lanes_);
-  const size_t end = std::min(first + size_t(lanes_), out_neurons());
-  std::copy(u, u + (end - first), &u_eval_[first]);
+void IirStreamingLayer::record(uint32_t unit, const float* u, int64_t t, int c0, int n) {
+  const size_t first = size_t(unit) * size_t(lanes_) + size_t(c0);
+  const size_t end = std::min(first + size_t(n), out_neurons());
+  if (end > first) std::copy(u, u + (end - first), &u_eval_[first]);
   eval_step_[unit] = t;
 }
 
 void IirStreamingLayer::step(int64_t t, const uint32_t* s, size_t n, std::vector<uint32_t>& next) {
-  step_all(t, s, n, next);
+  switch (isa_) {
+    case simd::Isa::Avx512:
+      step_avx512(t, s, n, next);
+      break;
+    case simd::Isa::Avx2:
+      step_avx2(t, s, n, next);
+      break;
+    default:
+      step_default(t, s, n, next);
+      break;
+  }
 }
 
-SPIKEMS_MULTIVERSION void IirStreamingLayer::step_all(int64_t t, const uint32_t* s, size_t n,
+// One copy of the step per instruction set; -ffp-contract=off keeps a*b+c unfused in all,
+// so that results do not depend on the CPU.
+SPIKEMS_TARGET_AVX512 void IirStreamingLayer::step_avx512(int64_t t, const uint32_t* s, size_t n,
+                                                          std::vector<uint32_t>& next) {
+  with_channels(cout_, [&](auto ct) SPIKEMS_INLINE_LAMBDA {
+    step_c<ct(), simd::Isa::Avx512>(t, s, n, next);
+  });
+}
+SPIKEMS_TARGET_AVX2 void IirStreamingLayer::step_avx2(int64_t t, const uint32_t* s, size_t n,
                                                       std::vector<uint32_t>& next) {
-  with_channels(cout_, [&](auto ct) SPIKEMS_INLINE_LAMBDA { step_c<ct()>(t, s, n, next); });
+  with_channels(
+      cout_, [&](auto ct) SPIKEMS_INLINE_LAMBDA { step_c<ct(), simd::Isa::Avx2>(t, s, n, next); });
+}
+void IirStreamingLayer::step_default(int64_t t, const uint32_t* s, size_t n,
+                                     std::vector<uint32_t>& next) {
+  with_channels(cout_, [&](auto ct) SPIKEMS_INLINE_LAMBDA {
+    step_c<ct(), simd::Isa::Default>(t, s, n, next);
+  });
 }
 
 namespace {
@@ -110,7 +140,7 @@ SPIKEMS_INLINE uint64_t at_least(const float* v, float th, int n) {
 }  // namespace
 
 // Brings a unit's state from its last step to step t (nothing to do when it is there, as
-// active units are).
+// active units are). For units that are not whole 16-lane vectors.
 template <int CT>
 SPIKEMS_INLINE void IirStreamingLayer::catch_up(uint32_t unit, int64_t t) {
   int64_t& last = last_[unit];
@@ -135,21 +165,20 @@ SPIKEMS_INLINE void IirStreamingLayer::catch_up(uint32_t unit, int64_t t) {
   for (int c = 0; c < L; ++c) r0[c] = gr * r0[c];
 }
 
-// One unit from step t to t+1: appends its spikes of t+1; returns whether it stays active.
+// One unit from step t to t+1: writes its spikes of t+1 at out; returns whether it stays
+// active. For units that are not whole 16-lane vectors (advance_unit() does the others).
 template <int CT>
-SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t,
-                                              std::vector<uint32_t>& next) {
+SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t, uint32_t*& out) {
   constexpr int LT = CT == 0 ? 0 : (CT < 16 && 16 % CT == 0 ? 16 : CT);
   const int L = LT ? LT : lanes_;
   const size_t o = size_t(unit) * size_t(L);
   const float g1 = decay(1), gr1 = ref_decay(1);
   const float cs = cs_f_, cref = cref_f_, ba = bound_a1_, bb = bound_b0_;
-  float u_local[LT ? LT : 1], bnd_local[LT ? LT : 1];
-  float* __restrict u = LT ? u_local : scratch_.data();
-  float* __restrict bnd = LT ? bnd_local : scratch_.data() + L;
   float* __restrict a1 = &a1_[o];
   float* __restrict b0 = &b0_[o];
   float* __restrict r0 = &r0_[o];
+  float* __restrict u = scratch_.data();
+  float* __restrict bnd = scratch_.data() + L;
   if (slayer_ref_) {
     float* __restrict r1 = &r1_[o];
     for (int c = 0; c < L; ++c) {
@@ -160,6 +189,7 @@ SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t,
     for (int c = 0; c < L; ++c) r0[c] = gr1 * r0[c];
   }
   const float* __restrict r = slayer_ref_ ? &r1_[o] : r0;
+  bool reach = false;
   for (int c = 0; c < L; ++c) {
     const float x = g1 * (a1[c] + b0[c]), y = g1 * b0[c];
     a1[c] = x;
@@ -168,14 +198,13 @@ SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t,
     bnd[c] = ba * std::max(x, 0.f) + bb * std::max(y, 0.f);
   }
   last_[unit] = t + 1;
-  if (record_) record(unit, u, t + 1);
-  bool reach = false;
+  if (record_) record(unit, u, t + 1, 0, L);
   // Lanes past the last position (a partial last unit) hold zeros and never reach theta > 0.
   for (int c0 = 0; c0 < L; c0 += 64) {
     const int len = std::min(64, L - c0);
     for (uint64_t f = at_least(u + c0, theta_, len); f != 0; f &= f - 1) {
       const int c = c0 + std::countr_zero(f);
-      next.push_back(uint32_t(o) + uint32_t(c));
+      *out++ = uint32_t(o) + uint32_t(c);
       r0[c] += spike_inc_;  // the spike's refractory response starts at t+2
     }
     reach |= at_least(bnd + c0, bound_theta_, len) != 0;
@@ -183,39 +212,185 @@ SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t,
   return reach;
 }
 
-template <int CT>
+// One unit of the fused pass when a unit is a whole number of 16-lane blocks (L known at
+// compile time): catch-up, this step's drive and the step to t+1, the same arithmetic as
+// catch_up() and update() with each block kept in registers from its load to its store.
+template <int L, simd::Isa I>
+SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, const float* drive,
+                                                    const PassConsts& k, uint32_t*& out) {
+  using simd::F16;
+  const size_t o = unit * size_t(L);
+  F16 g = k.one, gr = k.one, fd = {};
+  bool caught = false;
+  if (drive != nullptr) {
+    const int64_t d = t - last_[unit];
+    if (d != 0) {
+      g = simd::splat(decay(d));
+      gr = simd::splat(ref_decay(d));
+      fd = simd::splat(float(d));
+      caught = true;
+    }
+  }
+  bool reach = false;
+  const F16 zero = {};
+  for (int c0 = 0; c0 < L; c0 += 16) {
+    F16& a1m = *reinterpret_cast<F16*>(&a1_[o + c0]);
+    F16& b0m = *reinterpret_cast<F16*>(&b0_[o + c0]);
+    F16& r0m = *reinterpret_cast<F16*>(&r0_[o + c0]);
+    F16 a1 = a1m, b0 = b0m, r0 = r0m, r1 = {};
+    if (k.slayer) r1 = *reinterpret_cast<const F16*>(&r1_[o + c0]);
+    if (caught) {  // to step t
+      a1 = g * (a1 + fd * b0);
+      b0 = g * b0;
+      if (k.slayer) r1 = gr * (r1 + fd * r0);
+      r0 = gr * r0;
+    }
+    if (drive != nullptr) {  // this step's input
+      float* dv = const_cast<float*>(drive) + c0;
+      b0 = b0 + simd::load(dv);
+      simd::store(dv, zero);  // the drive buffer stays zero between steps
+    }
+    // to step t+1
+    F16 rv;
+    if (k.slayer) {
+      rv = k.gr1 * (r1 + r0);
+      *reinterpret_cast<F16*>(&r1_[o + c0]) = rv;
+      r0 = k.gr1 * r0;
+    } else {
+      rv = k.gr1 * r0;
+      r0 = rv;
+    }
+    const F16 x = k.g1 * (a1 + b0), y = k.g1 * b0;
+    a1m = x;
+    b0m = y;
+    const F16 uv = k.cs * x + k.cref * rv;
+    const F16 bv = k.ba * (x < zero ? zero : x) + k.bb * (y < zero ? zero : y);
+    reach |= simd::at_least<I>(bv, k.btheta) != 0;
+    if (k.record) {
+      alignas(64) float ul[16];
+      *reinterpret_cast<F16*>(ul) = uv;
+      record(uint32_t(unit), ul, t + 1, c0, 16);
+    }
+    r0m = uv >= k.theta ? r0 + k.inc : r0;  // a spike's refractory response starts at t+2
+    out = simd::compress<I>(out, simd::at_least<I>(uv, k.theta), uint32_t(o) + uint32_t(c0));
+  }
+  last_[unit] = t + 1;
+  return reach;
+}
+
+template <int CT, simd::Isa I>
 SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes, size_t n,
                                               std::vector<uint32_t>& next) {
-  // The drive of t goes straight into b0, each unit first brought up to step t.
-  const int C = CT ? CT : cout_;
-  scatter<CT>(
-      spikes, n, b0_.data(), unit_shift_,
-      [&](uint32_t unit) SPIKEMS_INLINE_LAMBDA { catch_up<CT>(unit, t); },
-      [&](uint32_t pos, int len) SPIKEMS_INLINE_LAMBDA {
-        __builtin_prefetch(&last_[pos >> unit_shift_], 1);
-        for (int j = 0; j < len * C; j += 16) {
-          __builtin_prefetch(&a1_[size_t(pos) * C + size_t(j)], 1);
-          __builtin_prefetch(&r0_[size_t(pos) * C + size_t(j)], 1);
-        }
-      });
+  constexpr int LT = CT == 0 ? 0 : (CT < 16 && 16 % CT == 0 ? 16 : CT);
+  constexpr bool kVector = LT != 0 && LT % 16 == 0;
+  const size_t L = size_t(LT ? LT : lanes_);
+  const size_t words = active_bits_.size();
+  uint64_t* __restrict tb = touched_bits_.data();
+  uint64_t* __restrict ab = active_bits_.data();
 
-  // Every unit reached or active is now at step t: one pass in address order.
-  const size_t n0 = next.size();
-  for (size_t w = 0; w < active_bits_.size(); ++w) {
-    const uint64_t aw = active_bits_[w], m = touched_bits_[w] | aw;
+  // 1. The units this step's input reaches, in address order; a unit's rank in that order
+  // is its slot in the compact drive buffer (rank_base_: the units before each bitmap word).
+  mark_reached(spikes, n, unit_shift_);
+  reached_.clear();
+  for (size_t w = 0; w < words; ++w) {
+    rank_base_[w] = uint32_t(reached_.size());
+    for (uint64_t m = tb[w]; m != 0; m &= m - 1)
+      reached_.push_back(uint32_t(w * 64 + size_t(std::countr_zero(m))));
+  }
+  // 2. The drive of step t, summed per unit in the drive buffer: a few hundred kilobytes at
+  // most, so it stays in cache whatever the layer's size. The units of one run are
+  // consecutive and all reached, so their slots are consecutive too.
+  float* drive = drive_.data();
+  const uint32_t* rb = rank_base_.data();
+  auto slot = [&](uint32_t u) SPIKEMS_INLINE_LAMBDA {
+    return size_t(rb[u >> 6]) + size_t(std::popcount(tb[u >> 6] & ((uint64_t(1) << (u & 63)) - 1)));
+  };
+  auto at = [&](uint32_t u) SPIKEMS_INLINE_LAMBDA { return drive + slot(u) * L; };
+  if constexpr (CT == 0 || (CT < 16 && 16 % CT == 0)) {
+    if (unit_shift_ > 0)
+      add_drive_units<CT>(spikes, at);  // L = 16 lanes per unit
+    else
+      add_drive<CT>(spikes, at);
+  } else {
+    add_drive<CT>(spikes, at);
+  }
+
+  // 3. One pass in address order over the units reached or active: each is brought up to
+  // step t (reached ones only: active ones are there), takes its drive and steps to t+1.
+  // Every state line is loaded and stored once. The state of a layer is larger than the
+  // caches and noise spikes reach it anywhere, so the reached units' state is requested
+  // kAhead units early, to keep many independent misses in flight.
+  const uint32_t* reached = reached_.data();
+  const size_t nr = reached_.size();
+  auto fetch = [&](uint32_t unit) SPIKEMS_INLINE_LAMBDA {
+    __builtin_prefetch(&last_[unit], 1);
+    const size_t o = size_t(unit) * L;
+    for (size_t j = 0; j < L; j += 16) {
+      __builtin_prefetch(&a1_[o + j], 1);
+      __builtin_prefetch(&b0_[o + j], 1);
+      __builtin_prefetch(&r0_[o + j], 1);
+      if (slayer_ref_) __builtin_prefetch(&r1_[o + j], 1);
+    }
+  };
+  constexpr size_t kAhead = 32;
+  for (size_t i = 0; i < std::min(nr, kAhead); ++i) fetch(reached[i]);
+  PassConsts k;
+  if constexpr (kVector) {
+    k.one = simd::splat(1.f);
+    k.g1 = simd::splat(decay(1));
+    k.gr1 = simd::splat(ref_decay(1));
+    k.cs = simd::splat(cs_f_);
+    k.cref = simd::splat(cref_f_);
+    k.ba = simd::splat(bound_a1_);
+    k.bb = simd::splat(bound_b0_);
+    k.inc = simd::splat(spike_inc_);
+  }
+  k.theta = theta_;
+  k.btheta = bound_theta_;
+  k.slayer = slayer_ref_;
+  k.record = record_;
+  uint32_t* out = spike_buf_.data();
+  size_t done = 0, visited = 0;
+  for (size_t w = 0; w < words; ++w) {
+    const uint64_t tw = tb[w], aw = ab[w], m = tw | aw;
     if (m == 0) continue;
-    touched_bits_[w] = 0;
-    visits_ += uint64_t(std::popcount(m)) << unit_shift_;
+    tb[w] = 0;
+    visited += size_t(std::popcount(m));
     uint64_t keep = 0;
     for (uint64_t mm = m; mm != 0; mm &= mm - 1) {
       const int b = std::countr_zero(mm);
-      if (update<CT>(uint32_t(w * 64 + size_t(b)), t, next)) keep |= uint64_t(1) << b;
+      const size_t unit = w * 64 + size_t(b);
+      const float* dv = nullptr;
+      if ((tw >> b) & 1) {
+        if (done + kAhead < nr) fetch(reached[done + kAhead]);
+        dv = drive + done * L;
+        ++done;
+      }
+      bool reach;
+      if constexpr (kVector) {
+        reach = advance_unit<LT, I>(unit, t, dv, k, out);
+      } else {
+        if (dv != nullptr) {
+          catch_up<CT>(uint32_t(unit), t);
+          float* b0 = &b0_[unit * L];
+          float* dd = const_cast<float*>(dv);
+          for (size_t c = 0; c < L; ++c) {
+            b0[c] += dd[c];
+            dd[c] = 0.f;
+          }
+        }
+        reach = update<CT>(uint32_t(unit), t, out);
+      }
+      keep |= uint64_t(reach) << b;
     }
     active_count_ += size_t(std::popcount(keep));
     active_count_ -= size_t(std::popcount(aw));
-    active_bits_[w] = keep;
+    ab[w] = keep;
   }
-  ahead_ = next.size() - n0;
+  visits_ += uint64_t(visited) << unit_shift_;
+  const size_t nout = size_t(out - spike_buf_.data());
+  next.insert(next.end(), spike_buf_.data(), out);
+  ahead_ = nout;
   spikes_ += ahead_;
 }
 

@@ -9,13 +9,17 @@
 // (the output layer's two channels: 8 positions), so that a unit is a whole vector of lanes
 // and the state of consecutive positions is contiguous in each array, indexed by neuron.
 //
-// A step has two passes. The scatter adds the input spikes' weights straight into b0 (the
-// drive of step t), after bringing a unit's state up to step t the first time the step
-// reaches it. The update then visits, in address order, every unit reached this step or
-// still "active" (a cheap upper bound on its future psp reaches theta; refractory terms are
-// never positive): all of them are at step t, so one uniform recursion step takes them to
-// t+1, with no branch per neuron; the spikes of t+1 are the neurons whose potential reaches
-// theta. Idle and decaying neurons cost nothing, and the spikes come out sorted.
+// A step has three parts. (1) mark: the units the input spikes reach, in address order (a
+// bitmap, no state touched). (2) drive: the weights of each input spike summed into a compact
+// buffer with one slot per reached unit (its rank in that order), which stays in cache. (3)
+// one pass in address order over every unit reached or still "active" (a cheap upper bound
+// on its future psp reaches theta; refractory terms are never positive): a reached unit is
+// brought up to step t in closed form and takes its drive, then every visited unit takes one
+// uniform recursion step to t+1 and the neurons whose potential reaches theta spike at t+1.
+// Each state line is read and written once per step, requested a few dozen units ahead so
+// that the cache misses overlap. Idle and decaying neurons cost nothing, and the spikes come
+// out sorted. The pass is compiled per instruction set (AVX-512, AVX2, baseline: compares
+// into bit masks, spikes written with a compress on AVX-512).
 #pragma once
 
 #include <cmath>
@@ -32,17 +36,40 @@ class IirStreamingLayer final : public StreamingLayer {
   void record_potentials(bool on) override;
   float potential(int64_t t, uint32_t neuron) const override;
   size_t busy_positions() const override { return active_count_ << unit_shift_; }
+  // Runs the step compiled for `isa` (tests compare them: spikes must not depend on the CPU).
+  // Returns false, changing nothing, when this CPU cannot run it.
+  bool set_isa(simd::Isa isa) {
+    if (int(isa) > int(simd::best_isa())) return false;
+    isa_ = isa;
+    return true;
+  }
 
  private:
-  SPIKEMS_MULTIVERSION void step_all(int64_t t, const uint32_t* spikes, size_t n,
+  SPIKEMS_TARGET_AVX512 void step_avx512(int64_t t, const uint32_t* spikes, size_t n,
+                                         std::vector<uint32_t>& next);
+  SPIKEMS_TARGET_AVX2 void step_avx2(int64_t t, const uint32_t* spikes, size_t n,
                                      std::vector<uint32_t>& next);
-  template <int CT>
+  void step_default(int64_t t, const uint32_t* spikes, size_t n, std::vector<uint32_t>& next);
+  template <int CT, simd::Isa I>
   void step_c(int64_t t, const uint32_t* spikes, size_t n, std::vector<uint32_t>& next);
   template <int CT>
   void catch_up(uint32_t unit, int64_t t);
   template <int CT>
-  bool update(uint32_t unit, int64_t t, std::vector<uint32_t>& next);
-  void record(uint32_t unit, const float* u, int64_t t);
+  bool update(uint32_t unit, int64_t t, uint32_t*& out);
+  // Keeps u[t] of lanes c0 .. c0+n of a unit (for potential()).
+  // Constants of a step's pass, in registers.
+  struct PassConsts {
+    simd::F16 one, g1, gr1, cs, cref, ba, bb, inc;
+    float theta, btheta;
+    bool slayer, record;
+  };
+  template <int L, simd::Isa I>
+  bool advance_unit(size_t unit, int64_t t, const float* drive, const PassConsts& k,
+                    uint32_t*& out);
+  // Keeps u[t] of lanes c0 .. c0+n of a unit (for potential()).
+  template <int L>
+  void update_pass(int64_t t, std::vector<uint32_t>& next);
+  void record(uint32_t unit, const float* u, int64_t t, int c0, int n);
   // a^d and ar^d: tables until they drop below the smallest normal float, 0 beyond (pow()
   // only for kernels so slow that the table would exceed 65536 entries).
   SPIKEMS_INLINE float decay(int64_t d) const {
@@ -58,6 +85,7 @@ class IirStreamingLayer final : public StreamingLayer {
   bool slayer_ref_;
   float cs_f_, cref_f_, spike_inc_, bound_a1_, bound_b0_, bound_theta_;
   std::vector<float> pow_a_, pow_ar_;
+  simd::Isa isa_ = simd::best_isa();
   int unit_shift_ = 0;  // a unit is 2^unit_shift_ positions
   int lanes_ = 0;       // neurons per unit
   // [neuron] each (a unit's lanes contiguous), units rounded up to a whole bitmap word,
@@ -66,7 +94,11 @@ class IirStreamingLayer final : public StreamingLayer {
   HugeBuffer<int64_t> last_;           // per unit: the step its state is expressed at
   std::vector<uint64_t> active_bits_;  // one bit per unit
   size_t active_count_ = 0;
-  std::vector<float> scratch_;  // 2 x lanes when they are not a compile-time constant
+  HugeBuffer<uint32_t> spike_buf_;   // the spikes of one pass
+  HugeBuffer<float> drive_;          // a step's drive, one slot of lanes_ per reached unit
+  std::vector<uint32_t> rank_base_;  // per bitmap word: the reached units before it
+  std::vector<uint32_t> reached_;    // units reached by this step's input, in address order
+  std::vector<float> scratch_;       // 2 x lanes when they are not a compile-time constant
   bool record_ = false;
   std::vector<float> u_eval_;
   std::vector<int64_t> eval_step_;

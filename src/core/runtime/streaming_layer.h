@@ -70,87 +70,138 @@ class StreamingLayer {
                                                 int in_height, int in_width);
 
  protected:
-  // The synaptic input of one step: for each input spike and each output position it
-  // reaches, target[position*C .. +C) += the weights of that tap. Marks are kept per unit of
-  // 2^unit_shift consecutive positions: each unit reached is marked in touched_bits_, and
-  // on_new(unit) is called the first time it is reached in the step, before anything is added
-  // to it (the IIR layer brings its state up to date there); on_prefetch(position, len) is
-  // called a few groups ahead for the runs to come. target needs 16 spare floats at its end.
-  // CT is the channel count when known at compile time (0: cout_).
+  // The synaptic input of one step, in two passes so that the layer can fetch the state of
+  // everything reached, in address order and many units ahead, between them:
+  //
+  // mark_reached() groups the spikes by input position (groups_: the channels of one input
+  // position, adjacent in sorted input, reach the same outputs, so the index arithmetic is
+  // done once per group) and sets in touched_bits_ the bit of every unit of 2^unit_shift
+  // consecutive output positions they reach. It touches no neuron state.
+  //
+  // add_drive() then adds, for each group of the last mark_reached() and each output position
+  // it reaches, the weights of that tap: at(op)[j*C .. +C) += w for the run's positions op+j
+  // (at(op) gives where the run's first position's C floats are; the run's positions follow
+  // contiguously). CT is the channel count when known at compile time (0: cout_); a target
+  // needs 16 spare floats after its last position.
   //
   // The output columns one input column reaches are consecutive (o = (x + p - kx) / s for a
   // convolution, s*x - p + kx for a transposed one), so per output row an input spike adds
   // one contiguous run of len*C weights (laid out in that order in wseg_) to len
   // consecutive positions: one vector loop and one or two bitmap words per row.
-  template <int CT, class OnNew, class OnPrefetch>
-  SPIKEMS_INLINE void scatter(const uint32_t* spikes, size_t n, float* target, int unit_shift,
-                              OnNew&& on_new, OnPrefetch&& on_prefetch) {
-    const int C = CT ? CT : cout_;
-    uint64_t taps = 0;
-    auto mark = [&](size_t word, uint64_t bits) SPIKEMS_INLINE_LAMBDA {
-      uint64_t fresh = bits & ~touched_bits_[word];
-      if (fresh == 0) return;
-      touched_bits_[word] |= fresh;
-      for (; fresh != 0; fresh &= fresh - 1)
-        on_new(uint32_t(word * 64 + size_t(std::countr_zero(fresh))));
-    };
-    // Spikes of one input position (its channels, adjacent in sorted input) reach the same
-    // output positions: the index arithmetic and the marks are done once per group.
-    groups_.clear();
+  SPIKEMS_INLINE void mark_reached(const uint32_t* spikes, size_t n, int unit_shift) {
+    // Branch-free grouping: every spike writes the slot of the next group, which only a
+    // spike of a new position keeps (the first spike always starts a group).
+    groups_.resize(n + 1);
+    Group* __restrict gr = groups_.data();
+    size_t ng = 0;
+    uint32_t prev = ~uint32_t(0);
     for (size_t i = 0; i < n; ++i) {
       const uint32_t pos = div_cin_(spikes[i]);
-      if (groups_.empty() || groups_.back().pos != pos) groups_.push_back({pos, uint32_t(i)});
+      gr[ng] = {pos, uint32_t(i)};
+      ng += pos != prev;
+      prev = pos;
     }
-    const size_t ng = groups_.size();
-    groups_.push_back({0, uint32_t(n)});
-    // The state of the positions a group reaches is often far from the cache (noise events
-    // land anywhere): it is requested a few groups early so that the misses overlap.
-    constexpr size_t kAhead = 4;
-    auto prefetch = [&](uint32_t pos) SPIKEMS_INLINE_LAMBDA {
+    gr[ng] = {0, uint32_t(n)};
+    groups_.resize(ng + 1);
+    uint64_t* __restrict tb = touched_bits_.data();
+    for (size_t g = 0; g < ng; ++g) {
+      const uint32_t pos = gr[g].pos;
       const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
       const ColumnRun& run = col_run_[x];
+      const uint32_t len = uint32_t(run.len);
+      if (len == 0) continue;
+      // len <= kernel <= 32: a run covers at most two bitmap words of positions, or its
+      // first and last unit and (for kernels wider than a unit) any between. The first two
+      // are marked without a branch; touched_bits_ has a spare word.
+      const uint64_t run_bits = (uint64_t(1) << len) - 1;
       for (int ry = row_begin_[y], r1 = row_begin_[y + 1]; ry < r1; ++ry) {
         const uint32_t op =
             uint32_t(row_taps_[size_t(ry)].first) * uint32_t(wout_) + uint32_t(run.first);
-        __builtin_prefetch(target + size_t(op) * C, 1);
-        on_prefetch(op, run.len);
+        if (unit_shift == 0) {
+          tb[op >> 6] |= run_bits << (op & 63);
+          tb[(op >> 6) + 1] |= (run_bits >> 1) >> (63 - (op & 63));
+        } else {
+          const uint32_t u0 = op >> unit_shift, u1 = (op + len - 1) >> unit_shift;
+          tb[u0 >> 6] |= uint64_t(1) << (u0 & 63);
+          tb[u1 >> 6] |= uint64_t(1) << (u1 & 63);
+          for (uint32_t u = u0 + 1; u < u1; ++u) tb[u >> 6] |= uint64_t(1) << (u & 63);
+        }
       }
-    };
-    for (size_t g = 0; g < std::min(ng, kAhead); ++g) prefetch(groups_[g].pos);
+    }
+  }
+
+  template <int CT, class At>
+  SPIKEMS_INLINE void add_drive(const uint32_t* spikes, At&& at) {
+    const int C = CT ? CT : cout_;
+    uint64_t taps = 0;
+    const size_t ng = groups_.size() - 1;
+    const Group* gr = groups_.data();
     for (size_t g = 0; g < ng; ++g) {
-      if (g + kAhead < ng) prefetch(groups_[g + kAhead].pos);
-      const uint32_t pos = groups_[g].pos, base = pos * uint32_t(cin_);
-      const size_t i = groups_[g].first, e = groups_[g + 1].first;
+      const uint32_t pos = gr[g].pos, base = pos * uint32_t(cin_);
+      const size_t i = gr[g].first, e = gr[g + 1].first;
       const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
       const ColumnRun& run = col_run_[x];
       const int len = run.len;
       const int r0 = row_begin_[y], r1 = row_begin_[y + 1];
       taps += uint64_t(r1 - r0) * uint64_t(len) * uint64_t(e - i);
-      const uint64_t run_bits = (uint64_t(1) << len) - 1;  // len <= kernel <= 32
+      const int m = len * C;
       for (int ry = r0; ry < r1 && len > 0; ++ry) {
         const auto [oy, ky] = row_taps_[size_t(ry)];
-        const uint32_t op = uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first);
-        if (unit_shift == 0) {
-          mark(op >> 6, run_bits << (op & 63));
-          if ((op & 63) + uint32_t(len) > 64) mark((op >> 6) + 1, run_bits >> (64 - (op & 63)));
-        } else {
-          const uint32_t u1 = (op + uint32_t(len) - 1) >> unit_shift;
-          for (uint32_t u = op >> unit_shift; u <= u1; ++u) mark(u >> 6, uint64_t(1) << (u & 63));
-        }
-        float* __restrict d = target + size_t(op) * C;
+        float* __restrict d = at(uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first));
         const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
-        for (size_t k = i; k < e; ++k) {
-          const float* __restrict w = wrow + size_t(spikes[k] - base) * seg_ci_stride_;
-          // Whole blocks of 16: the weights are zero-padded, so the positions past the run
-          // get +0, which changes nothing (target has 16 spare floats at its end).
-          if (CT != 0 && CT % 16 == 0) {
-            for (int j = 0; j < len; ++j)
-              for (int c = 0; c < CT; ++c) d[j * CT + c] += w[j * CT + c];
-          } else {
-            const int m = len * C;
-            for (int j = 0; j < m; j += 16)
-              for (int jj = 0; jj < 16; ++jj) d[j + jj] += w[j + jj];
-          }
+        // Whole blocks of 16: the weights are zero-padded, so the floats past the run get +0,
+        // which changes nothing (targets have 16 spare floats at their end). Each block is
+        // summed over the group's spikes in a register, in spike order.
+        for (int j = 0; j < m; j += 16) {
+          simd::F16 acc = simd::load(d + j);
+          for (size_t k = i; k < e; ++k)
+            acc += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_ + size_t(j));
+          simd::store(d + j, acc);
+        }
+      }
+    }
+    synops_ += taps * uint64_t(C);
+  }
+
+  // add_drive() for a target laid out in units of P = 2^unit_shift positions of C < 16
+  // channels, P*C = 16 lanes per unit, at_unit(u) giving unit u's lanes (the units a run
+  // reaches must follow contiguously, and 16*unit_blocks_ spare floats after the last): each tap's
+  // run is added as whole, aligned blocks of 16 lanes from a copy of its weights shifted to the
+  // run's place in its unit (wunit_, made by prepare_unit_weights()). Small runs (2-4 floats for
+  // the 2-channel output layer) then cost one or two aligned vector adds with no partial overlaps
+  // between neighbouring runs, which would defeat store-to-load forwarding. The blocks past the run
+  // add +0 to units that may not be marked, which changes no value.
+  void prepare_unit_weights(int unit_shift);
+  template <int CT, class AtUnit>
+  SPIKEMS_INLINE void add_drive_units(const uint32_t* spikes, AtUnit&& at_unit) {
+    const int C = CT ? CT : cout_;
+    const int per_unit = 16 / C, nblk = unit_blocks_;
+    uint64_t taps = 0;
+    const size_t ng = groups_.size() - 1;
+    const Group* gr = groups_.data();
+    const size_t shift_stride = size_t(nblk) * 16, ky_stride = size_t(per_unit) * shift_stride,
+                 ci_stride = size_t(k_) * ky_stride;
+    const uint32_t pmask = uint32_t(per_unit - 1);
+    const int ushift = std::countr_zero(unsigned(per_unit));
+    for (size_t g = 0; g < ng; ++g) {
+      const uint32_t pos = gr[g].pos, base = pos * uint32_t(cin_);
+      const size_t i = gr[g].first, e = gr[g + 1].first;
+      const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
+      const ColumnRun& run = col_run_[x];
+      const int r0 = row_begin_[y], r1 = row_begin_[y + 1];
+      taps += uint64_t(r1 - r0) * uint64_t(run.len) * uint64_t(e - i);
+      if (run.len == 0) continue;
+      for (int ry = r0; ry < r1; ++ry) {
+        const auto [oy, ky] = row_taps_[size_t(ry)];
+        const uint32_t op = uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first);
+        float* __restrict d = at_unit(op >> ushift);
+        const float* wrow = &wunit_[run.seq * size_t(cin_) * ci_stride + size_t(ky) * ky_stride +
+                                    size_t(op & pmask) * shift_stride];
+        for (int j = 0; j < nblk * 16; j += 16) {
+          simd::F16 acc = simd::load(d + j);
+          for (size_t k = i; k < e; ++k)
+            acc += simd::load(wrow + size_t(spikes[k] - base) * ci_stride + size_t(j));
+          simd::store(d + j, acc);
         }
       }
     }
@@ -168,10 +219,15 @@ class StreamingLayer {
   // zero-padded to seg_ky_stride_ (a multiple of 16) floats.
   struct ColumnRun {
     int32_t first = 0, len = 0;
-    size_t weights = 0;
+    size_t weights = 0;  // offset in wseg_
+    size_t seq = 0;      // which distinct sequence of kx
   };
   std::vector<ColumnRun> col_run_;
   std::vector<float> wseg_;
+  // add_drive_units(): [seq][ci][ky][shift in unit][unit_blocks_ x 16 lanes]
+  std::vector<float> wunit_;
+  int unit_blocks_ = 0;
+  size_t kx_seq_count_ = 0;
   size_t seg_ky_stride_ = 0, seg_ci_stride_ = 0;
   std::vector<uint64_t> touched_bits_;  // one bit per output unit: reached this step
   struct Group {

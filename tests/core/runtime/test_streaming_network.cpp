@@ -8,6 +8,7 @@
 
 #include "common/test_paths.h"
 #include "core/runtime/dense_reference.h"
+#include "core/runtime/iir_streaming_layer.h"
 #include "core/runtime/streaming_network.h"
 #include "reference_case.h"
 
@@ -306,6 +307,68 @@ TEST(StreamingNetwork, OtherGeometriesAndChannelCountsMatchDense) {
     check_model(m, make_input(40, 18, 22, false, 22, 0.06), 2e-4, &spikes);
     EXPECT_GT(spikes, 20) << "the last layer must be exercised";
   }
+}
+
+// The IIR step is compiled once per instruction set (AVX-512, AVX2, baseline); each must give
+// exactly the same spikes, for every channel count path: 2 (units of 8 positions), 16, 32, 64
+// (whole vectors), 8 and 5 (generic), with both refractory forms.
+TEST(StreamingNetwork, IirInstructionSetsGiveIdenticalSpikes) {
+  using simd::Isa;
+  std::vector<Isa> isas = {Isa::Default};
+  if (int(simd::best_isa()) >= int(Isa::Avx2)) isas.push_back(Isa::Avx2);
+  if (simd::best_isa() == Isa::Avx512) isas.push_back(Isa::Avx512);
+  struct Row {
+    LayerKind kind;
+    int ci, co;
+  };
+  int compared = 0;
+  for (auto ref : {RefractoryShape::SpikeMS, RefractoryShape::Slayer})
+    for (const Row& r : {Row{LayerKind::Conv, 2, 16}, Row{LayerKind::Conv, 16, 32},
+                         Row{LayerKind::Conv, 32, 64}, Row{LayerKind::ConvTranspose, 16, 2},
+                         Row{LayerKind::Conv, 2, 8}, Row{LayerKind::ConvTranspose, 4, 5}}) {
+      LayerSpec l;
+      l.kind = r.kind;
+      l.in_channels = r.ci;
+      l.out_channels = r.co;
+      l.padding = 1;
+      l.output_padding = r.kind == LayerKind::ConvTranspose ? 1 : 0;
+      l.neuron.discretisation = Discretisation::IIR;
+      l.neuron.refractory = ref;
+      l.weight.assign(size_t(l.weight_count()), 0.f);
+      std::mt19937 rng(uint32_t(7 + r.co));
+      std::normal_distribution<float> g(0.3f / float(r.ci), 1.2f / std::sqrt(float(r.ci) * 9));
+      for (auto& w : l.weight) w = g(rng);
+      const int H = 24, W = 34;
+      std::vector<std::vector<uint32_t>> in(40);
+      std::bernoulli_distribution on(0.08);
+      for (auto& s : in)
+        for (uint32_t n = 0; n < uint32_t(H * W * r.ci); ++n)
+          if (on(rng)) s.push_back(n);
+      std::vector<std::vector<uint32_t>> first;
+      for (Isa isa : isas) {
+        auto layer = StreamingLayer::create(l, 1.0, H, W);
+        auto* iir = dynamic_cast<IirStreamingLayer*>(layer.get());
+        ASSERT_NE(iir, nullptr);
+        ASSERT_TRUE(iir->set_isa(isa));
+        std::vector<std::vector<uint32_t>> got;
+        size_t total = 0;
+        for (size_t t = 0; t < in.size(); ++t) {
+          got.emplace_back();
+          layer->step(int64_t(t), in[t].data(), in[t].size(), got.back());
+          total += got.back().size();
+        }
+        EXPECT_GT(total, 50u) << r.ci << "->" << r.co << ": the layer must spike";
+        if (first.empty()) {
+          first = got;
+        } else {
+          ++compared;
+          for (size_t t = 0; t < in.size(); ++t)
+            ASSERT_EQ(got[t], first[t])
+                << r.ci << "->" << r.co << " isa " << int(isa) << " step " << t;
+        }
+      }
+    }
+  if (compared == 0) GTEST_SKIP() << "this CPU has only the baseline instruction set";
 }
 
 // Visits count the positions whose state a step reads and writes. One input spike into a
