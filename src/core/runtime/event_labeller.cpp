@@ -15,7 +15,9 @@ EventLabeller::EventLabeller(SensorSize sensor, int oh, int ow, int oc, int wind
 }
 
 void EventLabeller::push(const Event& e, int64_t step) {
-  queue_.push_back({e, step});
+  if (step_counts_.empty() || step_counts_.back().first != step) step_counts_.push_back({step, 0});
+  ++step_counts_.back().second;
+  queue_.push_back({e, out_pixel(e.x, e.y)});
 }
 
 void EventLabeller::on_step(int64_t step, const std::vector<uint32_t>& spikes, EventStream& out) {
@@ -23,21 +25,33 @@ void EventLabeller::on_step(int64_t step, const std::vector<uint32_t>& spikes, E
   // The events decided now sit at random pixels of a table larger than the cache: their
   // entries are requested a few events ahead so that the misses overlap.
   constexpr size_t kAhead = 8;
-  size_t decided = 0;
-  while (decided < queue_.size() && queue_[decided].step + window_ <= step) ++decided;
-  for (size_t i = 0; i < std::min(decided, kAhead); ++i)
-    __builtin_prefetch(&last_spike_[out_pixel(queue_[i].e.x, queue_[i].e.y)]);
-  for (size_t i = 0; i < decided; ++i) {
-    if (i + kAhead < decided) {
-      const Event& a = queue_[i + kAhead].e;
-      __builtin_prefetch(&last_spike_[out_pixel(a.x, a.y)]);
+  const Pending* q = queue_.data();
+  size_t end = head_;
+  for (auto it = step_counts_.begin(); it != step_counts_.end() && it->first + window_ <= step;
+       ++it)
+    end += it->second;
+  for (size_t i = head_; i < std::min(end, head_ + kAhead); ++i)
+    __builtin_prefetch(&last_spike_[q[i].pixel]);
+  size_t i = head_;
+  while (!step_counts_.empty() && step_counts_.front().first + window_ <= step) {
+    const int64_t s = step_counts_.front().first;
+    for (const size_t e = i + step_counts_.front().second; i < e; ++i) {
+      if (i + kAhead < end) __builtin_prefetch(&last_spike_[q[i + kAhead].pixel]);
+      const bool fg = last_spike_[q[i].pixel] >= s;
+      fg_ += fg;
+      const Event& ev = q[i].e;
+      out.push_back(ev.t, ev.x, ev.y, ev.p, uint16_t(fg ? 1 : 0));
     }
-    const Pending& p = queue_[i];
-    const bool fg = last_spike_[out_pixel(p.e.x, p.e.y)] >= p.step;
-    fg_ += fg;
-    out.push_back(p.e.t, p.e.x, p.e.y, p.e.p, uint16_t(fg ? 1 : 0));
+    step_counts_.pop_front();
   }
-  queue_.erase(queue_.begin(), queue_.begin() + std::ptrdiff_t(decided));
+  head_ = i;
+  if (head_ == queue_.size()) {
+    queue_.clear();
+    head_ = 0;
+  } else if (head_ > queue_.size() / 2) {
+    queue_.erase(queue_.begin(), queue_.begin() + std::ptrdiff_t(head_));
+    head_ = 0;
+  }
 }
 
 }  // namespace spikems

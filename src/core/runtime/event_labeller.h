@@ -26,7 +26,7 @@ class EventLabeller {
   // Records the output spikes of step `step`, then appends to `out` (with labels 1 =
   // foreground, 0 = background) every queued event whose window ended at `step`.
   void on_step(int64_t step, const std::vector<uint32_t>& out_spikes, EventStream& out);
-  size_t pending() const { return queue_.size(); }
+  size_t pending() const { return queue_.size() - head_; }
   int window_steps() const { return window_; }
   // Output pixel index of a sensor pixel.
   uint32_t out_pixel(int x, int y) const {
@@ -38,12 +38,17 @@ class EventLabeller {
  private:
   struct Pending {
     Event e;
-    int64_t step;
+    uint32_t pixel;  // out_pixel() of the event
   };
   SensorSize sensor_;
   int oh_, ow_, oc_, window_;
   std::vector<int64_t> last_spike_;  // per output pixel
-  std::deque<Pending> queue_;
+  // Queued events in arrival order from head_ (the vector is compacted when half is spent),
+  // and how many of them each step brought, oldest first: no per-event step is kept or
+  // scanned to find the events a step decides.
+  std::vector<Pending> queue_;
+  size_t head_ = 0;
+  std::deque<std::pair<int64_t, size_t>> step_counts_;
   uint64_t fg_ = 0;
 };
 

@@ -85,8 +85,9 @@ void Segmenter::push(const EventStream& c) {
                     "time goes back from " + std::to_string(last_t_) + " us to " +
                         std::to_string(t) + " us; sort the stream first (e.g. --sort)");
     last_t_ = t;
-    const int64_t step = (t - origin_) / step_us_;
-    while (cur_step_ < step) run_step();
+    // The event's step without a division per event: steps end at origin + k * step_us.
+    while (t >= origin_ + (cur_step_ + 1) * step_us_) run_step();
+    const int64_t step = cur_step_;
     const uint32_t n = (uint32_t(c.y[i]) * uint32_t(sensor_.width) + c.x[i]) * 2u + c.p[i];
     uint64_t& word = input_bits_[n >> 6];
     const uint64_t bit = uint64_t(1) << (n & 63);

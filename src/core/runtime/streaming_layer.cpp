@@ -99,6 +99,19 @@ void StreamingLayer::prepare_unit_weights(int unit_shift) {
   // Lanes a run can reach: from its shift in the unit to the end of its len <= k positions.
   const int lanes = (per_unit - 1) * C + k_ * C;
   unit_blocks_ = (lanes + 15) / 16;
+  unit_permute_ = k_ * C <= 16;
+  if (unit_permute_) {
+    // Lane j of block b takes lane b*16 + j - shift*C of the run's weights, or zero.
+    unit_shift_idx_.assign(size_t(per_unit) * size_t(unit_blocks_) * 16, 0);
+    for (int sh = 0; sh < per_unit; ++sh)
+      for (int b = 0; b < unit_blocks_; ++b)
+        for (int j = 0; j < 16; ++j) {
+          const int src = b * 16 + j - sh * C;
+          unit_shift_idx_[size_t((sh * unit_blocks_ + b) * 16 + j)] =
+              src >= 0 && src < 16 ? src : 16;
+        }
+    return;
+  }
   const size_t shift_stride = size_t(unit_blocks_) * 16, ky_stride = per_unit * shift_stride,
                ci_stride = size_t(k_) * ky_stride;
   wunit_.assign(kx_seq_count_ * size_t(cin_) * ci_stride, 0.f);

@@ -195,6 +195,19 @@ class StreamingLayer {
         const auto [oy, ky] = row_taps_[size_t(ry)];
         const uint32_t op = uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first);
         float* __restrict d = at_unit(op >> ushift);
+        if (unit_permute_) {
+          // The group's run weights summed in one register, then moved to the run's lanes.
+          const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
+          simd::F16 w = simd::load(wrow + size_t(spikes[i] - base) * seg_ci_stride_);
+          for (size_t k = i + 1; k < e; ++k)
+            w += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_);
+          const int32_t* ix = &unit_shift_idx_[size_t(op & pmask) * size_t(nblk) * 16];
+          const simd::F16 zero = {};
+          for (int b = 0; b < nblk; ++b)
+            simd::store(d + 16 * b, simd::load(d + 16 * b) +
+                                        __builtin_shuffle(w, zero, simd::load(ix + 16 * b)));
+          continue;
+        }
         const float* wrow = &wunit_[run.seq * size_t(cin_) * ci_stride + size_t(ky) * ky_stride +
                                     size_t(op & pmask) * shift_stride];
         for (int j = 0; j < nblk * 16; j += 16) {
@@ -224,7 +237,11 @@ class StreamingLayer {
   };
   std::vector<ColumnRun> col_run_;
   std::vector<float> wseg_;
-  // add_drive_units(): [seq][ci][ky][shift in unit][unit_blocks_ x 16 lanes]
+  // add_drive_units(): when a run's weights fit one vector (k*C <= 16), the lane indices
+  // moving them to each shift in the unit, [shift][block] (16..31 select zero); otherwise
+  // shifted copies of the weights, [seq][ci][ky][shift in unit][unit_blocks_ x 16 lanes].
+  bool unit_permute_ = false;
+  std::vector<int32_t> unit_shift_idx_;
   std::vector<float> wunit_;
   int unit_blocks_ = 0;
   size_t kx_seq_count_ = 0;

@@ -63,12 +63,16 @@ using F16 = float __attribute__((vector_size(64), aligned(64)));
 using I16 = int32_t __attribute__((vector_size(64), aligned(64)));
 // The same, for memory that is only float-aligned, read and written through float pointers.
 using F16U = float __attribute__((vector_size(64), aligned(4), may_alias));
+using I16U = int32_t __attribute__((vector_size(64), aligned(4), may_alias));
 
 SPIKEMS_INLINE F16 load(const float* p) {
   return *reinterpret_cast<const F16U*>(p);
 }
 SPIKEMS_INLINE void store(float* p, F16 v) {
   *reinterpret_cast<F16U*>(p) = v;
+}
+SPIKEMS_INLINE I16 load(const int32_t* p) {
+  return *reinterpret_cast<const I16U*>(p);
 }
 SPIKEMS_INLINE F16 splat(float x) {
   F16 v;
