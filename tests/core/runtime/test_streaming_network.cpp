@@ -282,8 +282,8 @@ TEST(StreamingNetwork, OtherGeometriesAndChannelCountsMatchDense) {
     };
     for (const Row& r :
          {Row{LayerKind::Conv, 2, 5, 5, 1, 2, 0}, Row{LayerKind::Conv, 5, 70, 3, 2, 1, 0},
-          Row{LayerKind::ConvTranspose, 70, 3, 4, 2, 1, 0},
-          Row{LayerKind::Conv, 3, 8, 4, 1, 0, 0}}) {
+          Row{LayerKind::ConvTranspose, 70, 3, 4, 2, 1, 0}, Row{LayerKind::Conv, 3, 8, 4, 1, 0, 0},
+          Row{LayerKind::ConvTranspose, 8, 4, 3, 2, 1, 1}}) {
       LayerSpec l;
       l.kind = r.kind;
       l.in_channels = r.ci;
