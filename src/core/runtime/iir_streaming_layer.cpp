@@ -51,9 +51,11 @@ IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int
   };
   table(a_, pow_a_);
   table(ar_, pow_ar_);
-  // Units: 16/C positions when C divides 16, so that a unit is one vector of 16 lanes.
+  // Units: 16/C positions when C divides 16, so that a unit is one vector of 16 lanes, and a
+  // run's k*C weights fit one vector (add_drive_units() moves them into the unit with one
+  // permutation); otherwise one position.
   const int C = cout_;
-  const int per_unit = (C < 16 && 16 % C == 0) ? 16 / C : 1;
+  const int per_unit = (C < 16 && 16 % C == 0 && k_ * C <= 16) ? 16 / C : 1;
   unit_shift_ = std::countr_zero(unsigned(per_unit));
   lanes_ = per_unit * C;
   const size_t npos = size_t(hout_) * wout_;

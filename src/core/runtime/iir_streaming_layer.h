@@ -6,7 +6,8 @@
 // consecutive positions is contiguous.
 //
 // The state is kept per *unit*: one position, or 16/C consecutive positions when C divides 16
-// (the output layer's two channels: 8 positions), so that a unit is a whole vector of lanes
+// and k*C <= 16 (the output layer's two channels: 8 positions), so that a unit is a whole
+// vector of lanes
 // and the state of consecutive positions is contiguous in each array, indexed by neuron.
 //
 // A step has three parts. (1) mark: the units the input spikes reach, in address order (a

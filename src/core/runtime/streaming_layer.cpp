@@ -84,49 +84,25 @@ StreamingLayer::StreamingLayer(const LayerSpec& l, int hin, int win)
           for (int co = 0; co < cout_; ++co)
             wseg_[q * block + size_t(ci) * seg_ci_stride_ + size_t(ky) * seg_ky_stride_ +
                   j * size_t(cout_) + size_t(co)] = weight(ci, co, ky, kx_seqs[q][j]);
-  for (int x = 0; x < win_; ++x) {
-    col_run_[size_t(x)].weights = seq_of[size_t(x)] * block;
-    col_run_[size_t(x)].seq = seq_of[size_t(x)];
-  }
-  kx_seq_count_ = kx_seqs.size();
+  for (int x = 0; x < win_; ++x) col_run_[size_t(x)].weights = seq_of[size_t(x)] * block;
   const size_t npos = size_t(hout_) * wout_;
   touched_bits_.assign((npos + 63) / 64 + 1, 0);  // + the spare word of mark_reached()
 }
 
 void StreamingLayer::prepare_unit_weights(int unit_shift) {
   const int per_unit = 1 << unit_shift, C = cout_;
-  if (per_unit * C != 16) fail("runtime", "", "internal: unit weights need 16 lanes per unit");
+  if (per_unit * C != 16 || k_ * C > 16)
+    fail("runtime", "", "internal: unit drive needs 16 lanes per unit and k*C <= 16");
   // Lanes a run can reach: from its shift in the unit to the end of its len <= k positions.
-  const int lanes = (per_unit - 1) * C + k_ * C;
-  unit_blocks_ = (lanes + 15) / 16;
-  unit_permute_ = k_ * C <= 16;
-  if (unit_permute_) {
-    // Lane j of block b takes lane b*16 + j - shift*C of the run's weights, or zero.
-    unit_shift_idx_.assign(size_t(per_unit) * size_t(unit_blocks_) * 16, 0);
-    for (int sh = 0; sh < per_unit; ++sh)
-      for (int b = 0; b < unit_blocks_; ++b)
-        for (int j = 0; j < 16; ++j) {
-          const int src = b * 16 + j - sh * C;
-          unit_shift_idx_[size_t((sh * unit_blocks_ + b) * 16 + j)] =
-              src >= 0 && src < 16 ? src : 16;
-        }
-    return;
-  }
-  const size_t shift_stride = size_t(unit_blocks_) * 16, ky_stride = per_unit * shift_stride,
-               ci_stride = size_t(k_) * ky_stride;
-  wunit_.assign(kx_seq_count_ * size_t(cin_) * ci_stride, 0.f);
-  const size_t block = size_t(cin_) * seg_ci_stride_;
-  for (size_t q = 0; q < kx_seq_count_; ++q)
-    for (int ci = 0; ci < cin_; ++ci)
-      for (int ky = 0; ky < k_; ++ky)
-        for (int sh = 0; sh < per_unit; ++sh) {
-          const float* src =
-              &wseg_[q * block + size_t(ci) * seg_ci_stride_ + size_t(ky) * seg_ky_stride_];
-          float* dst = &wunit_[(q * size_t(cin_) + size_t(ci)) * ci_stride +
-                               size_t(ky) * ky_stride + size_t(sh) * shift_stride];
-          // wseg_'s run (len*C floats, zero-padded to seg_ky_stride_) placed at lane sh*C.
-          for (size_t j = 0; j < size_t(k_) * size_t(C); ++j) dst[size_t(sh * C) + j] = src[j];
-        }
+  unit_blocks_ = ((per_unit - 1) * C + k_ * C + 15) / 16;
+  // Lane j of block b takes lane b*16 + j - shift*C of the run's weights, or zero.
+  unit_shift_idx_.assign(size_t(per_unit) * size_t(unit_blocks_) * 16, 0);
+  for (int sh = 0; sh < per_unit; ++sh)
+    for (int b = 0; b < unit_blocks_; ++b)
+      for (int j = 0; j < 16; ++j) {
+        const int src = b * 16 + j - sh * C;
+        unit_shift_idx_[size_t((sh * unit_blocks_ + b) * 16 + j)] = src >= 0 && src < 16 ? src : 16;
+      }
 }
 
 void StreamingLayer::fire(int64_t t, std::vector<uint32_t>& out) {

@@ -8,7 +8,7 @@
 // instruction set, util/simd.h, and specialised for the usual channel counts).
 //
 // The two kinds (fir_streaming_layer.h, iir_streaming_layer.h) differ in how they keep the
-// psp state; both use scatter() below for the synaptic drive.
+// psp state; both use mark_reached() and add_drive() below for the synaptic drive.
 #pragma once
 
 #include <algorithm>
@@ -103,122 +103,101 @@ class StreamingLayer {
     }
     gr[ng] = {0, uint32_t(n)};
     groups_.resize(ng + 1);
+    // len <= kernel <= 32: a run covers at most two bitmap words of positions, or its first
+    // and last unit and (for kernels wider than a unit) any between. The first two are marked
+    // without a branch; touched_bits_ has a spare word.
     uint64_t* __restrict tb = touched_bits_.data();
-    for (size_t g = 0; g < ng; ++g) {
-      const uint32_t pos = gr[g].pos;
-      const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
-      const ColumnRun& run = col_run_[x];
-      const uint32_t len = uint32_t(run.len);
-      if (len == 0) continue;
-      // len <= kernel <= 32: a run covers at most two bitmap words of positions, or its
-      // first and last unit and (for kernels wider than a unit) any between. The first two
-      // are marked without a branch; touched_bits_ has a spare word.
-      const uint64_t run_bits = (uint64_t(1) << len) - 1;
-      for (int ry = row_begin_[y], r1 = row_begin_[y + 1]; ry < r1; ++ry) {
-        const uint32_t op =
-            uint32_t(row_taps_[size_t(ry)].first) * uint32_t(wout_) + uint32_t(run.first);
-        if (unit_shift == 0) {
-          tb[op >> 6] |= run_bits << (op & 63);
-          tb[(op >> 6) + 1] |= (run_bits >> 1) >> (63 - (op & 63));
-        } else {
-          const uint32_t u0 = op >> unit_shift, u1 = (op + len - 1) >> unit_shift;
-          tb[u0 >> 6] |= uint64_t(1) << (u0 & 63);
-          tb[u1 >> 6] |= uint64_t(1) << (u1 & 63);
-          for (uint32_t u = u0 + 1; u < u1; ++u) tb[u >> 6] |= uint64_t(1) << (u & 63);
-        }
-      }
-    }
+    each_run([&](size_t, size_t, uint32_t, const ColumnRun& run, int, uint32_t op)
+                 SPIKEMS_INLINE_LAMBDA {
+                   const uint32_t len = uint32_t(run.len);
+                   if (unit_shift == 0) {
+                     const uint64_t run_bits = (uint64_t(1) << len) - 1;
+                     tb[op >> 6] |= run_bits << (op & 63);
+                     tb[(op >> 6) + 1] |= (run_bits >> 1) >> (63 - (op & 63));
+                   } else {
+                     const uint32_t u0 = op >> unit_shift, u1 = (op + len - 1) >> unit_shift;
+                     tb[u0 >> 6] |= uint64_t(1) << (u0 & 63);
+                     tb[u1 >> 6] |= uint64_t(1) << (u1 & 63);
+                     for (uint32_t u = u0 + 1; u < u1; ++u) tb[u >> 6] |= uint64_t(1) << (u & 63);
+                   }
+                 });
   }
 
   template <int CT, class At>
   SPIKEMS_INLINE void add_drive(const uint32_t* spikes, At&& at) {
     const int C = CT ? CT : cout_;
     uint64_t taps = 0;
-    const size_t ng = groups_.size() - 1;
-    const Group* gr = groups_.data();
-    for (size_t g = 0; g < ng; ++g) {
-      const uint32_t pos = gr[g].pos, base = pos * uint32_t(cin_);
-      const size_t i = gr[g].first, e = gr[g + 1].first;
-      const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
-      const ColumnRun& run = col_run_[x];
-      const int len = run.len;
-      const int r0 = row_begin_[y], r1 = row_begin_[y + 1];
-      taps += uint64_t(r1 - r0) * uint64_t(len) * uint64_t(e - i);
-      const int m = len * C;
-      for (int ry = r0; ry < r1 && len > 0; ++ry) {
-        const auto [oy, ky] = row_taps_[size_t(ry)];
-        float* __restrict d = at(uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first));
-        const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
-        // Whole blocks of 16: the weights are zero-padded, so the floats past the run get +0,
-        // which changes nothing (targets have 16 spare floats at their end). Each block is
-        // summed over the group's spikes in a register, in spike order.
-        for (int j = 0; j < m; j += 16) {
-          simd::F16 acc = simd::load(d + j);
-          for (size_t k = i; k < e; ++k)
-            acc += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_ + size_t(j));
-          simd::store(d + j, acc);
-        }
+    each_run([&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int ky,
+                 uint32_t op) SPIKEMS_INLINE_LAMBDA {
+      taps += uint64_t(run.len) * uint64_t(e - i);
+      float* __restrict d = at(op);
+      const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
+      // Whole blocks of 16: the weights are zero-padded, so the floats past the
+      // run get +0, which changes nothing (targets have 16 spare floats at their
+      // end). Each block is summed over the group's spikes in a register, in
+      // spike order.
+      for (int j = 0; j < run.len * C; j += 16) {
+        simd::F16 acc = simd::load(d + j);
+        for (size_t k = i; k < e; ++k)
+          acc += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_ + size_t(j));
+        simd::store(d + j, acc);
       }
-    }
+    });
     synops_ += taps * uint64_t(C);
   }
 
   // add_drive() for a target laid out in units of P = 2^unit_shift positions of C < 16
   // channels, P*C = 16 lanes per unit, at_unit(u) giving unit u's lanes (the units a run
-  // reaches must follow contiguously, and 16*unit_blocks_ spare floats after the last): each tap's
-  // run is added as whole, aligned blocks of 16 lanes from a copy of its weights shifted to the
-  // run's place in its unit (wunit_, made by prepare_unit_weights()). Small runs (2-4 floats for
-  // the 2-channel output layer) then cost one or two aligned vector adds with no partial overlaps
-  // between neighbouring runs, which would defeat store-to-load forwarding. The blocks past the run
-  // add +0 to units that may not be marked, which changes no value.
+  // reaches must follow contiguously, with 16*unit_blocks_ spare floats after the last).
+  // Needs k*C <= 16, so that a run's weights fit one vector: they are summed over the group's
+  // spikes in a register, then moved to the run's lanes in its unit by one permutation
+  // (unit_shift_idx_, made by prepare_unit_weights()) and added as whole, aligned blocks of
+  // 16 lanes. Small runs (2-6 floats for the 2-channel output layer) then cost one or two
+  // aligned vector adds with no partial overlaps between neighbouring runs, which would
+  // defeat store-to-load forwarding. The lanes outside the run add +0, which changes no value
+  // (also in units that may not be marked).
   void prepare_unit_weights(int unit_shift);
   template <int CT, class AtUnit>
   SPIKEMS_INLINE void add_drive_units(const uint32_t* spikes, AtUnit&& at_unit) {
     const int C = CT ? CT : cout_;
-    const int per_unit = 16 / C, nblk = unit_blocks_;
+    const int nblk = unit_blocks_, ushift = std::countr_zero(unsigned(16 / C));
+    const uint32_t pmask = uint32_t(16 / C - 1);
     uint64_t taps = 0;
+    each_run([&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int ky,
+                 uint32_t op) SPIKEMS_INLINE_LAMBDA {
+      taps += uint64_t(run.len) * uint64_t(e - i);
+      const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
+      simd::F16 w = simd::load(wrow + size_t(spikes[i] - base) * seg_ci_stride_);
+      for (size_t k = i + 1; k < e; ++k)
+        w += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_);
+      float* __restrict d = at_unit(op >> ushift);
+      const int32_t* ix = &unit_shift_idx_[size_t(op & pmask) * size_t(nblk) * 16];
+      const simd::F16 zero = {};
+      for (int b = 0; b < nblk; ++b)
+        simd::store(d + 16 * b,
+                    simd::load(d + 16 * b) + __builtin_shuffle(w, zero, simd::load(ix + 16 * b)));
+    });
+    synops_ += taps * uint64_t(C);
+  }
+
+  // Calls f(first spike, end spike, first input neuron of the position, run, ky, first
+  // output position) for each group of the last mark_reached() and each output row it
+  // reaches: the run is the group's len consecutive output positions in that row.
+  template <class F>
+  SPIKEMS_INLINE void each_run(F&& f) {
     const size_t ng = groups_.size() - 1;
     const Group* gr = groups_.data();
-    const size_t shift_stride = size_t(nblk) * 16, ky_stride = size_t(per_unit) * shift_stride,
-                 ci_stride = size_t(k_) * ky_stride;
-    const uint32_t pmask = uint32_t(per_unit - 1);
-    const int ushift = std::countr_zero(unsigned(per_unit));
     for (size_t g = 0; g < ng; ++g) {
-      const uint32_t pos = gr[g].pos, base = pos * uint32_t(cin_);
-      const size_t i = gr[g].first, e = gr[g + 1].first;
+      const uint32_t pos = gr[g].pos;
       const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
       const ColumnRun& run = col_run_[x];
-      const int r0 = row_begin_[y], r1 = row_begin_[y + 1];
-      taps += uint64_t(r1 - r0) * uint64_t(run.len) * uint64_t(e - i);
       if (run.len == 0) continue;
-      for (int ry = r0; ry < r1; ++ry) {
+      for (int ry = row_begin_[y], r1 = row_begin_[y + 1]; ry < r1; ++ry) {
         const auto [oy, ky] = row_taps_[size_t(ry)];
-        const uint32_t op = uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first);
-        float* __restrict d = at_unit(op >> ushift);
-        if (unit_permute_) {
-          // The group's run weights summed in one register, then moved to the run's lanes.
-          const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
-          simd::F16 w = simd::load(wrow + size_t(spikes[i] - base) * seg_ci_stride_);
-          for (size_t k = i + 1; k < e; ++k)
-            w += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_);
-          const int32_t* ix = &unit_shift_idx_[size_t(op & pmask) * size_t(nblk) * 16];
-          const simd::F16 zero = {};
-          for (int b = 0; b < nblk; ++b)
-            simd::store(d + 16 * b, simd::load(d + 16 * b) +
-                                        __builtin_shuffle(w, zero, simd::load(ix + 16 * b)));
-          continue;
-        }
-        const float* wrow = &wunit_[run.seq * size_t(cin_) * ci_stride + size_t(ky) * ky_stride +
-                                    size_t(op & pmask) * shift_stride];
-        for (int j = 0; j < nblk * 16; j += 16) {
-          simd::F16 acc = simd::load(d + j);
-          for (size_t k = i; k < e; ++k)
-            acc += simd::load(wrow + size_t(spikes[k] - base) * ci_stride + size_t(j));
-          simd::store(d + j, acc);
-        }
+        f(size_t(gr[g].first), size_t(gr[g + 1].first), pos * uint32_t(cin_), run, int(ky),
+          uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first));
       }
     }
-    synops_ += taps * uint64_t(C);
   }
 
   int cin_, hin_, win_, cout_, hout_, wout_, k_;
@@ -233,18 +212,13 @@ class StreamingLayer {
   struct ColumnRun {
     int32_t first = 0, len = 0;
     size_t weights = 0;  // offset in wseg_
-    size_t seq = 0;      // which distinct sequence of kx
   };
   std::vector<ColumnRun> col_run_;
   std::vector<float> wseg_;
-  // add_drive_units(): when a run's weights fit one vector (k*C <= 16), the lane indices
-  // moving them to each shift in the unit, [shift][block] (16..31 select zero); otherwise
-  // shifted copies of the weights, [seq][ci][ky][shift in unit][unit_blocks_ x 16 lanes].
-  bool unit_permute_ = false;
+  // add_drive_units(): the lane indices moving a run's weights to each shift in its unit,
+  // [shift][block][16] (16 selects zero), and how many 16-lane blocks a run can span.
   std::vector<int32_t> unit_shift_idx_;
-  std::vector<float> wunit_;
   int unit_blocks_ = 0;
-  size_t kx_seq_count_ = 0;
   size_t seg_ky_stride_ = 0, seg_ci_stride_ = 0;
   std::vector<uint64_t> touched_bits_;  // one bit per output unit: reached this step
   struct Group {

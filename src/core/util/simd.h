@@ -23,7 +23,11 @@
 // Explicit per-instruction-set entry points, for code that needs intrinsics (target_clones
 // compiles one body for all sets, so it cannot use them): a function marked
 // SPIKEMS_TARGET_AVX512 / _AVX2 calls SPIKEMS_INLINE templates taking an Isa, which pick
-// intrinsics with `if constexpr`; the caller chooses with simd::best_isa() at run time.
+// helpers like at_least_avx512() with `if constexpr`; the caller chooses with
+// simd::best_isa() at run time. Those helpers carry the target attribute and are plain
+// `inline`, not always_inline: GCC refuses to force an AVX-512 function into a template
+// compiled for the baseline, but inlines it once the template sits inside the AVX-512 entry
+// point.
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__)) && \
     !defined(SPIKEMS_NO_MULTIVERSION)
 #define SPIKEMS_HAVE_ISA_TARGETS 1

@@ -25,6 +25,22 @@ std::vector<uint32_t> spikes_at(const DenseTensor& d, int t) {
   return s;
 }
 
+// A layer of the given geometry with zero weights.
+LayerSpec make_layer(LayerKind kind, int ci, int co, int k, int stride, int pad, int out_pad,
+                     Discretisation disc) {
+  LayerSpec l;
+  l.kind = kind;
+  l.in_channels = ci;
+  l.out_channels = co;
+  l.kernel = k;
+  l.stride = stride;
+  l.padding = pad;
+  l.output_padding = out_pad;
+  l.neuron.discretisation = disc;
+  l.weight.assign(size_t(l.weight_count()), 0.f);
+  return l;
+}
+
 struct Diff {
   int mismatches = 0, far_from_threshold = 0;
   double max_du = 0;  // largest |u_stream - u_dense| / max(1, |u_dense|)
@@ -284,17 +300,7 @@ TEST(StreamingNetwork, OtherGeometriesAndChannelCountsMatchDense) {
          {Row{LayerKind::Conv, 2, 5, 5, 1, 2, 0}, Row{LayerKind::Conv, 5, 70, 3, 2, 1, 0},
           Row{LayerKind::ConvTranspose, 70, 3, 4, 2, 1, 0}, Row{LayerKind::Conv, 3, 8, 4, 1, 0, 0},
           Row{LayerKind::ConvTranspose, 8, 4, 3, 2, 1, 1}}) {
-      LayerSpec l;
-      l.kind = r.kind;
-      l.in_channels = r.ci;
-      l.out_channels = r.co;
-      l.kernel = r.k;
-      l.stride = r.s;
-      l.padding = r.p;
-      l.output_padding = r.op;
-      l.neuron.discretisation = disc;
-      l.weight.assign(size_t(l.weight_count()), 0.f);
-      m.layers.push_back(std::move(l));
+      m.layers.push_back(make_layer(r.kind, r.ci, r.co, r.k, r.s, r.p, r.op, disc));
     }
     std::mt19937 rng(21);
     for (auto& l : m.layers) {
@@ -326,15 +332,9 @@ TEST(StreamingNetwork, IirInstructionSetsGiveIdenticalSpikes) {
     for (const Row& r : {Row{LayerKind::Conv, 2, 16}, Row{LayerKind::Conv, 16, 32},
                          Row{LayerKind::Conv, 32, 64}, Row{LayerKind::ConvTranspose, 16, 2},
                          Row{LayerKind::Conv, 2, 8}, Row{LayerKind::ConvTranspose, 4, 5}}) {
-      LayerSpec l;
-      l.kind = r.kind;
-      l.in_channels = r.ci;
-      l.out_channels = r.co;
-      l.padding = 1;
-      l.output_padding = r.kind == LayerKind::ConvTranspose ? 1 : 0;
-      l.neuron.discretisation = Discretisation::IIR;
+      LayerSpec l = make_layer(r.kind, r.ci, r.co, 3, 2, 1,
+                               r.kind == LayerKind::ConvTranspose ? 1 : 0, Discretisation::IIR);
       l.neuron.refractory = ref;
-      l.weight.assign(size_t(l.weight_count()), 0.f);
       std::mt19937 rng(uint32_t(7 + r.co));
       std::normal_distribution<float> g(0.3f / float(r.ci), 1.2f / std::sqrt(float(r.ci) * 9));
       for (auto& w : l.weight) w = g(rng);
