@@ -74,7 +74,7 @@ IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int
   if (unit_shift_ > 0) prepare_unit_weights(unit_shift_);
   // One slot per unit at most, + the spare floats of whole blocks past a run.
   drive_.assign(n + 16 * size_t(std::max(unit_blocks_, 1)) + 64);
-  rank_base_.assign(units / 64 + 1, 0);
+  zero_drive_.assign(2 * size_t(lanes_));  // zeros to read, then a block to write to
 }
 
 void IirStreamingLayer::record_potentials(bool on) {
@@ -219,20 +219,13 @@ SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t, uint32_t
 // catch_up() and update() with each block kept in registers from its load to its store.
 template <int L, simd::Isa I>
 SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, const float* drive,
-                                                    const PassConsts& k, uint32_t*& out) {
+                                                    float* sink, const PassConsts& k,
+                                                    uint32_t*& out) {
   using simd::F16;
   const size_t o = unit * size_t(L);
-  F16 g = k.one, gr = k.one, fd = {};
-  bool caught = false;
-  if (drive != nullptr) {
-    const int64_t d = t - last_[unit];
-    if (d != 0) {
-      g = simd::splat(decay(d));
-      gr = simd::splat(ref_decay(d));
-      fd = simd::splat(float(d));
-      caught = true;
-    }
-  }
+  const int64_t d = t - last_[unit];  // 0 for active units, which are at step t already
+  const F16 g = simd::splat<I>(decay(d)), gr = simd::splat<I>(ref_decay(d)),
+            fd = simd::splat<I>(float(d));
   bool reach = false;
   const F16 zero = {};
   for (int c0 = 0; c0 < L; c0 += 16) {
@@ -241,17 +234,16 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
     F16& r0m = *reinterpret_cast<F16*>(&r0_[o + c0]);
     F16 a1 = a1m, b0 = b0m, r0 = r0m, r1 = {};
     if (k.slayer) r1 = *reinterpret_cast<const F16*>(&r1_[o + c0]);
-    if (caught) {  // to step t
+    if (d != 0) {  // to step t
       a1 = g * (a1 + fd * b0);
       b0 = g * b0;
       if (k.slayer) r1 = gr * (r1 + fd * r0);
       r0 = gr * r0;
     }
-    if (drive != nullptr) {  // this step's input
-      float* dv = const_cast<float*>(drive) + c0;
-      b0 = b0 + simd::load(dv);
-      simd::store(dv, zero);  // the drive buffer stays zero between steps
-    }
+    // This step's input: a unit not reached takes a block of zeros, which leaves b0 as it is
+    // (no branch: whether a unit was reached is data the branch predictor cannot learn).
+    b0 = b0 + simd::load(drive + c0);
+    simd::store(sink + c0, zero);  // the drive buffer stays zero between steps
     // to step t+1
     F16 rv;
     if (k.slayer) {
@@ -290,62 +282,56 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
   uint64_t* __restrict tb = touched_bits_.data();
   uint64_t* __restrict ab = active_bits_.data();
 
-  // 1. The units this step's input reaches, in address order; a unit's rank in that order
-  // is its slot in the compact drive buffer (rank_base_: the units before each bitmap word).
-  mark_reached(spikes, n, unit_shift_);
-  reached_.clear();
-  for (size_t w = 0; w < words; ++w) {
-    rank_base_[w] = uint32_t(reached_.size());
-    for (uint64_t m = tb[w]; m != 0; m &= m - 1)
-      reached_.push_back(uint32_t(w * 64 + size_t(std::countr_zero(m))));
-  }
-  // 2. The drive of step t, summed per unit in the drive buffer: a few hundred kilobytes at
-  // most, so it stays in cache whatever the layer's size. The units of one run are
-  // consecutive and all reached, so their slots are consecutive too.
+  // 1. The drive of step t, summed per unit into a dense buffer (a float per neuron, zero
+  // between steps), marking the units it reaches on the way.
+  group_spikes(spikes, n);
   float* drive = drive_.data();
-  const uint32_t* rb = rank_base_.data();
-  auto slot = [&](uint32_t u) SPIKEMS_INLINE_LAMBDA {
-    return size_t(rb[u >> 6]) + size_t(std::popcount(tb[u >> 6] & ((uint64_t(1) << (u & 63)) - 1)));
-  };
-  auto at = [&](uint32_t u) SPIKEMS_INLINE_LAMBDA { return drive + slot(u) * L; };
+  auto at = [&](uint32_t u) SPIKEMS_INLINE_LAMBDA { return drive + size_t(u) * L; };
   if constexpr (CT == 0 || (CT < 16 && 16 % CT == 0)) {
     if (unit_shift_ > 0)
-      add_drive_units<CT>(spikes, at);  // L = 16 lanes per unit
+      add_drive_units<CT, true>(spikes, at);  // L = 16 lanes per unit
     else
-      add_drive<CT>(spikes, at);
+      add_drive<CT, true>(spikes, at);
   } else {
-    add_drive<CT>(spikes, at);
+    add_drive<CT, true>(spikes, at);
   }
+  // 2. The units reached, in address order, to request their state ahead of the pass.
+  reached_.clear();
+  for (size_t w = 0; w < words; ++w)
+    for (uint64_t m = tb[w]; m != 0; m &= m - 1)
+      reached_.push_back(uint32_t(w * 64 + size_t(std::countr_zero(m))));
 
   // 3. One pass in address order over the units reached or active: each is brought up to
   // step t (reached ones only: active ones are there), takes its drive and steps to t+1.
   // Every state line is loaded and stored once. The state of a layer is larger than the
   // caches and noise spikes reach it anywhere, so the reached units' state is requested
   // kAhead units early, to keep many independent misses in flight.
-  const uint32_t* reached = reached_.data();
+  constexpr size_t kAhead = 32;
   const size_t nr = reached_.size();
+  reached_.insert(reached_.end(), kAhead, nr ? reached_.back() : 0u);
+  const uint32_t* reached = reached_.data();
   auto fetch = [&](uint32_t unit) SPIKEMS_INLINE_LAMBDA {
     __builtin_prefetch(&last_[unit], 1);
     const size_t o = size_t(unit) * L;
     for (size_t j = 0; j < L; j += 16) {
+      __builtin_prefetch(&drive[o + j], 1);
       __builtin_prefetch(&a1_[o + j], 1);
       __builtin_prefetch(&b0_[o + j], 1);
       __builtin_prefetch(&r0_[o + j], 1);
       if (slayer_ref_) __builtin_prefetch(&r1_[o + j], 1);
     }
   };
-  constexpr size_t kAhead = 32;
   for (size_t i = 0; i < std::min(nr, kAhead); ++i) fetch(reached[i]);
   PassConsts k;
   if constexpr (kVector) {
-    k.one = simd::splat(1.f);
-    k.g1 = simd::splat(decay(1));
-    k.gr1 = simd::splat(ref_decay(1));
-    k.cs = simd::splat(cs_f_);
-    k.cref = simd::splat(cref_f_);
-    k.ba = simd::splat(bound_a1_);
-    k.bb = simd::splat(bound_b0_);
-    k.inc = simd::splat(spike_inc_);
+    k.one = simd::splat<I>(1.f);
+    k.g1 = simd::splat<I>(decay(1));
+    k.gr1 = simd::splat<I>(ref_decay(1));
+    k.cs = simd::splat<I>(cs_f_);
+    k.cref = simd::splat<I>(cref_f_);
+    k.ba = simd::splat<I>(bound_a1_);
+    k.bb = simd::splat<I>(bound_b0_);
+    k.inc = simd::splat<I>(spike_inc_);
   }
   k.theta = theta_;
   k.btheta = bound_theta_;
@@ -362,16 +348,21 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
     for (uint64_t mm = m; mm != 0; mm &= mm - 1) {
       const int b = std::countr_zero(mm);
       const size_t unit = w * 64 + size_t(b);
-      const float* dv = nullptr;
-      if ((tw >> b) & 1) {
-        if (done + kAhead < nr) fetch(reached[done + kAhead]);
-        dv = drive + done * L;
-        ++done;
-      }
       bool reach;
       if constexpr (kVector) {
-        reach = advance_unit<LT, I>(unit, t, dv, k, out);
+        const size_t hit = size_t((tw >> b) & 1);
+        if (hit) fetch(reached[done + kAhead]);  // reached_ has kAhead spare entries
+        float* const slot = drive + unit * L;
+        float* const zeros = zero_drive_.data();
+        reach = advance_unit<LT, I>(unit, t, hit ? slot : zeros, hit ? slot : zeros + LT, k, out);
+        done += hit;
       } else {
+        const float* dv = nullptr;
+        if ((tw >> b) & 1) {
+          if (done + kAhead < nr) fetch(reached[done + kAhead]);
+          dv = drive + unit * L;
+          ++done;
+        }
         if (dv != nullptr) {
           catch_up<CT>(uint32_t(unit), t);
           float* b0 = &b0_[unit * L];

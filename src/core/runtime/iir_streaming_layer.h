@@ -7,18 +7,19 @@
 //
 // The state is kept per *unit*: one position, or 16/C consecutive positions when C divides 16
 // and k*C <= 16 (the output layer's two channels: 8 positions), so that a unit is a whole
-// vector of lanes
-// and the state of consecutive positions is contiguous in each array, indexed by neuron.
+// vector of lanes and the state of consecutive positions is contiguous in each array,
+// indexed by neuron.
 //
-// A step has three parts. (1) mark: the units the input spikes reach, in address order (a
-// bitmap, no state touched). (2) drive: the weights of each input spike summed into a compact
-// buffer with one slot per reached unit (its rank in that order), which stays in cache. (3)
-// one pass in address order over every unit reached or still "active" (a cheap upper bound
-// on its future psp reaches theta; refractory terms are never positive): a reached unit is
-// brought up to step t in closed form and takes its drive, then every visited unit takes one
-// uniform recursion step to t+1 and the neurons whose potential reaches theta spike at t+1.
-// Each state line is read and written once per step, requested a few dozen units ahead so
-// that the cache misses overlap. Idle and decaying neurons cost nothing, and the spikes come
+// A step has three parts. (1) drive: the weights of each input spike summed into a dense
+// buffer (one float per neuron, zero between steps), marking the units reached in a bitmap
+// on the way. (2) the reached units listed in address order from that bitmap. (3) one pass
+// in address order over every unit reached or still "active" (a cheap upper bound on its
+// future psp reaches theta; refractory terms are never positive): a unit is brought up to
+// step t in closed form and takes its drive (a block of zeros when not reached: no branch
+// the predictor would miss), then takes one uniform recursion step to t+1, and the neurons
+// whose potential reaches theta spike at t+1. Each state line is read and written once per
+// step, requested a few dozen reached units ahead so that the cache misses overlap. Idle
+// and decaying neurons cost nothing, and the spikes come
 // out sorted. The pass is compiled per instruction set (AVX-512, AVX2, baseline: compares
 // into bit masks, spikes written with a compress on AVX-512).
 #pragma once
@@ -57,7 +58,6 @@ class IirStreamingLayer final : public StreamingLayer {
   void catch_up(uint32_t unit, int64_t t);
   template <int CT>
   bool update(uint32_t unit, int64_t t, uint32_t*& out);
-  // Keeps u[t] of lanes c0 .. c0+n of a unit (for potential()).
   // Constants of a step's pass, in registers.
   struct PassConsts {
     simd::F16 one, g1, gr1, cs, cref, ba, bb, inc;
@@ -65,7 +65,7 @@ class IirStreamingLayer final : public StreamingLayer {
     bool slayer, record;
   };
   template <int L, simd::Isa I>
-  bool advance_unit(size_t unit, int64_t t, const float* drive, const PassConsts& k,
+  bool advance_unit(size_t unit, int64_t t, const float* drive, float* sink, const PassConsts& k,
                     uint32_t*& out);
   // Keeps u[t] of lanes c0 .. c0+n of a unit (for potential()).
   template <int L>
@@ -95,11 +95,11 @@ class IirStreamingLayer final : public StreamingLayer {
   HugeBuffer<int64_t> last_;           // per unit: the step its state is expressed at
   std::vector<uint64_t> active_bits_;  // one bit per unit
   size_t active_count_ = 0;
-  HugeBuffer<uint32_t> spike_buf_;   // the spikes of one pass
-  HugeBuffer<float> drive_;          // a step's drive, one slot of lanes_ per reached unit
-  std::vector<uint32_t> rank_base_;  // per bitmap word: the reached units before it
-  std::vector<uint32_t> reached_;    // units reached by this step's input, in address order
-  std::vector<float> scratch_;       // 2 x lanes when they are not a compile-time constant
+  HugeBuffer<uint32_t> spike_buf_;  // the spikes of one pass
+  HugeBuffer<float> drive_;         // a step's drive, one float per neuron, zero between steps
+  HugeBuffer<float> zero_drive_;    // the drive of a unit not reached (2 x lanes_, see pass)
+  std::vector<uint32_t> reached_;   // units reached by this step's input, in address order
+  std::vector<float> scratch_;      // 2 x lanes when they are not a compile-time constant
   bool record_ = false;
   std::vector<float> u_eval_;
   std::vector<int64_t> eval_step_;

@@ -88,7 +88,7 @@ class StreamingLayer {
   // convolution, s*x - p + kx for a transposed one), so per output row an input spike adds
   // one contiguous run of len*C weights (laid out in that order in wseg_) to len
   // consecutive positions: one vector loop and one or two bitmap words per row.
-  SPIKEMS_INLINE void mark_reached(const uint32_t* spikes, size_t n, int unit_shift) {
+  SPIKEMS_INLINE void group_spikes(const uint32_t* spikes, size_t n) {
     // Branch-free grouping: every spike writes the slot of the next group, which only a
     // spike of a new position keeps (the first spike always starts a group).
     groups_.resize(n + 1);
@@ -103,32 +103,37 @@ class StreamingLayer {
     }
     gr[ng] = {0, uint32_t(n)};
     groups_.resize(ng + 1);
-    // len <= kernel <= 32: a run covers at most two bitmap words of positions, or its first
-    // and last unit and (for kernels wider than a unit) any between. The first two are marked
-    // without a branch; touched_bits_ has a spare word.
+  }
+  // Sets the bits of the units of 2^unit_shift positions that a run of len positions from op
+  // reaches. len <= kernel <= 32: a run covers at most two bitmap words of positions, or its
+  // first and last unit and (for kernels wider than a unit) any between. The first two are
+  // marked without a branch; touched_bits_ has a spare word.
+  SPIKEMS_INLINE void mark_run(uint32_t op, uint32_t len, int unit_shift) {
     uint64_t* __restrict tb = touched_bits_.data();
+    if (unit_shift == 0) {
+      const uint64_t run_bits = (uint64_t(1) << len) - 1;
+      tb[op >> 6] |= run_bits << (op & 63);
+      tb[(op >> 6) + 1] |= (run_bits >> 1) >> (63 - (op & 63));
+    } else {
+      const uint32_t u0 = op >> unit_shift, u1 = (op + len - 1) >> unit_shift;
+      tb[u0 >> 6] |= uint64_t(1) << (u0 & 63);
+      tb[u1 >> 6] |= uint64_t(1) << (u1 & 63);
+      for (uint32_t u = u0 + 1; u < u1; ++u) tb[u >> 6] |= uint64_t(1) << (u & 63);
+    }
+  }
+  SPIKEMS_INLINE void mark_reached(const uint32_t* spikes, size_t n, int unit_shift) {
+    group_spikes(spikes, n);
     each_run([&](size_t, size_t, uint32_t, const ColumnRun& run, int, uint32_t op)
-                 SPIKEMS_INLINE_LAMBDA {
-                   const uint32_t len = uint32_t(run.len);
-                   if (unit_shift == 0) {
-                     const uint64_t run_bits = (uint64_t(1) << len) - 1;
-                     tb[op >> 6] |= run_bits << (op & 63);
-                     tb[(op >> 6) + 1] |= (run_bits >> 1) >> (63 - (op & 63));
-                   } else {
-                     const uint32_t u0 = op >> unit_shift, u1 = (op + len - 1) >> unit_shift;
-                     tb[u0 >> 6] |= uint64_t(1) << (u0 & 63);
-                     tb[u1 >> 6] |= uint64_t(1) << (u1 & 63);
-                     for (uint32_t u = u0 + 1; u < u1; ++u) tb[u >> 6] |= uint64_t(1) << (u & 63);
-                   }
-                 });
+                 SPIKEMS_INLINE_LAMBDA { mark_run(op, uint32_t(run.len), unit_shift); });
   }
 
-  template <int CT, class At>
+  template <int CT, bool kMark = false, class At>
   SPIKEMS_INLINE void add_drive(const uint32_t* spikes, At&& at) {
     const int C = CT ? CT : cout_;
     uint64_t taps = 0;
     each_run([&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int ky,
                  uint32_t op) SPIKEMS_INLINE_LAMBDA {
+      if constexpr (kMark) mark_run(op, uint32_t(run.len), 0);
       taps += uint64_t(run.len) * uint64_t(e - i);
       float* __restrict d = at(op);
       const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
@@ -157,7 +162,7 @@ class StreamingLayer {
   // defeat store-to-load forwarding. The lanes outside the run add +0, which changes no value
   // (also in units that may not be marked).
   void prepare_unit_weights(int unit_shift);
-  template <int CT, class AtUnit>
+  template <int CT, bool kMark = false, class AtUnit>
   SPIKEMS_INLINE void add_drive_units(const uint32_t* spikes, AtUnit&& at_unit) {
     const int C = CT ? CT : cout_;
     const int nblk = unit_blocks_, ushift = std::countr_zero(unsigned(16 / C));
@@ -165,6 +170,7 @@ class StreamingLayer {
     uint64_t taps = 0;
     each_run([&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int ky,
                  uint32_t op) SPIKEMS_INLINE_LAMBDA {
+      if constexpr (kMark) mark_run(op, uint32_t(run.len), ushift);
       taps += uint64_t(run.len) * uint64_t(e - i);
       const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
       simd::F16 w = simd::load(wrow + size_t(spikes[i] - base) * seg_ci_stride_);

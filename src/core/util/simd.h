@@ -78,10 +78,11 @@ SPIKEMS_INLINE void store(float* p, F16 v) {
 SPIKEMS_INLINE I16 load(const int32_t* p) {
   return *reinterpret_cast<const I16U*>(p);
 }
+// Every lane x. In code compiled for one instruction set, use splat<I>(): GCC 12 compiles a
+// vector initialiser written in a function without a target attribute, once inlined into an
+// AVX-512 one, to 16 masked broadcasts, one per lane (measured: a third of a layer's time).
 SPIKEMS_INLINE F16 splat(float x) {
-  F16 v;
-  for (int i = 0; i < 16; ++i) v[i] = x;
-  return v;
+  return F16{x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x};
 }
 
 // Bit i set where v[i] >= th (false for NaN), in registers: the compare selects each lane's
@@ -120,6 +121,23 @@ SPIKEMS_TARGET_AVX512 inline uint32_t* compress_avx512(uint32_t* out, uint32_t m
   return out + __builtin_popcount(m);
 }
 #endif
+
+#if SPIKEMS_HAVE_ISA_TARGETS
+SPIKEMS_TARGET_AVX512 inline F16 splat_avx512(float x) {
+  return F16{x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x};
+}
+SPIKEMS_TARGET_AVX2 inline F16 splat_avx2(float x) {
+  return F16{x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x};
+}
+#endif
+template <Isa I>
+SPIKEMS_INLINE F16 splat(float x) {
+#if SPIKEMS_HAVE_ISA_TARGETS
+  if constexpr (I == Isa::Avx512) return splat_avx512(x);
+  if constexpr (I == Isa::Avx2) return splat_avx2(x);
+#endif
+  return splat(x);
+}
 
 // Bit i set where v[i] >= th (false for NaN), with the instructions of I.
 template <Isa I>
