@@ -61,10 +61,8 @@ IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int
   const size_t npos = size_t(hout_) * wout_;
   const size_t units = ((npos + size_t(per_unit) - 1) / size_t(per_unit) + 63) / 64 * 64;
   const size_t n = units * size_t(lanes_);
-  a1_.assign(n);
-  b0_.assign(n);
-  r0_.assign(n);
-  if (slayer_ref_) r1_.assign(n);
+  nvars_ = slayer_ref_ ? 4 : 3;
+  state_.assign(n * size_t(nvars_));
   last_.assign(units);
   for (size_t i = 0; i < units; ++i)
     last_[i] = std::numeric_limits<int64_t>::min() / 4;  // state is 0: any gap works
@@ -151,17 +149,16 @@ SPIKEMS_INLINE void IirStreamingLayer::catch_up(uint32_t unit, int64_t t) {
   last = t;
   constexpr int LT = CT == 0 ? 0 : (CT < 16 && 16 % CT == 0 ? 16 : CT);
   const int L = LT ? LT : lanes_;
-  const size_t o = size_t(unit) * size_t(L);
   const float g = decay(d), gr = ref_decay(d), fd = float(d);
-  float* __restrict a1 = &a1_[o];
-  float* __restrict b0 = &b0_[o];
-  float* __restrict r0 = &r0_[o];
+  float* __restrict a1 = record_of(unit, L);
+  float* __restrict b0 = a1 + L;
+  float* __restrict r0 = a1 + 2 * L;
   for (int c = 0; c < L; ++c) {
     a1[c] = g * (a1[c] + fd * b0[c]);
     b0[c] = g * b0[c];
   }
   if (slayer_ref_) {
-    float* __restrict r1 = &r1_[o];
+    float* __restrict r1 = a1 + 3 * L;
     for (int c = 0; c < L; ++c) r1[c] = gr * (r1[c] + fd * r0[c]);
   }
   for (int c = 0; c < L; ++c) r0[c] = gr * r0[c];
@@ -176,13 +173,13 @@ SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t, uint32_t
   const size_t o = size_t(unit) * size_t(L);
   const float g1 = decay(1), gr1 = ref_decay(1);
   const float cs = cs_f_, cref = cref_f_, ba = bound_a1_, bb = bound_b0_;
-  float* __restrict a1 = &a1_[o];
-  float* __restrict b0 = &b0_[o];
-  float* __restrict r0 = &r0_[o];
+  float* __restrict a1 = record_of(unit, L);
+  float* __restrict b0 = a1 + L;
+  float* __restrict r0 = a1 + 2 * L;
   float* __restrict u = scratch_.data();
   float* __restrict bnd = scratch_.data() + L;
   if (slayer_ref_) {
-    float* __restrict r1 = &r1_[o];
+    float* __restrict r1 = a1 + 3 * L;
     for (int c = 0; c < L; ++c) {
       r1[c] = gr1 * (r1[c] + r0[c]);
       r0[c] = gr1 * r0[c];
@@ -190,7 +187,7 @@ SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t, uint32_t
   } else {
     for (int c = 0; c < L; ++c) r0[c] = gr1 * r0[c];
   }
-  const float* __restrict r = slayer_ref_ ? &r1_[o] : r0;
+  const float* __restrict r = slayer_ref_ ? a1 + 3 * L : r0;
   bool reach = false;
   for (int c = 0; c < L; ++c) {
     const float x = g1 * (a1[c] + b0[c]), y = g1 * b0[c];
@@ -223,17 +220,19 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
                                                     uint32_t*& out) {
   using simd::F16;
   const size_t o = unit * size_t(L);
+  float* const rec = record_of(unit, size_t(L));
   const int64_t d = t - last_[unit];  // 0 for active units, which are at step t already
   const F16 g = simd::splat<I>(decay(d)), gr = simd::splat<I>(ref_decay(d)),
             fd = simd::splat<I>(float(d));
   bool reach = false;
   const F16 zero = {};
   for (int c0 = 0; c0 < L; c0 += 16) {
-    F16& a1m = *reinterpret_cast<F16*>(&a1_[o + c0]);
-    F16& b0m = *reinterpret_cast<F16*>(&b0_[o + c0]);
-    F16& r0m = *reinterpret_cast<F16*>(&r0_[o + c0]);
+    F16& a1m = *reinterpret_cast<F16*>(rec + c0);
+    F16& b0m = *reinterpret_cast<F16*>(rec + L + c0);
+    F16& r0m = *reinterpret_cast<F16*>(rec + 2 * L + c0);
+    F16& r1m = *reinterpret_cast<F16*>(rec + 3 * L + c0);  // SLAYER's form only
     F16 a1 = a1m, b0 = b0m, r0 = r0m, r1 = {};
-    if (k.slayer) r1 = *reinterpret_cast<const F16*>(&r1_[o + c0]);
+    if (k.slayer) r1 = r1m;
     if (d != 0) {  // to step t
       a1 = g * (a1 + fd * b0);
       b0 = g * b0;
@@ -248,7 +247,7 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
     F16 rv;
     if (k.slayer) {
       rv = k.gr1 * (r1 + r0);
-      *reinterpret_cast<F16*>(&r1_[o + c0]) = rv;
+      r1m = rv;
       r0 = k.gr1 * r0;
     } else {
       rv = k.gr1 * r0;
@@ -313,13 +312,9 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
   auto fetch = [&](uint32_t unit) SPIKEMS_INLINE_LAMBDA {
     __builtin_prefetch(&last_[unit], 1);
     const size_t o = size_t(unit) * L;
-    for (size_t j = 0; j < L; j += 16) {
-      __builtin_prefetch(&drive[o + j], 1);
-      __builtin_prefetch(&a1_[o + j], 1);
-      __builtin_prefetch(&b0_[o + j], 1);
-      __builtin_prefetch(&r0_[o + j], 1);
-      if (slayer_ref_) __builtin_prefetch(&r1_[o + j], 1);
-    }
+    for (size_t j = 0; j < L; j += 16) __builtin_prefetch(&drive[o + j], 1);
+    const float* rec = record_of(unit, L);
+    for (size_t j = 0; j < size_t(nvars_) * L; j += 16) __builtin_prefetch(rec + j, 1);
   };
   for (size_t i = 0; i < std::min(nr, kAhead); ++i) fetch(reached[i]);
   PassConsts k;
@@ -365,7 +360,7 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
         }
         if (dv != nullptr) {
           catch_up<CT>(uint32_t(unit), t);
-          float* b0 = &b0_[unit * L];
+          float* b0 = record_of(unit, L) + L;
           float* dd = const_cast<float*>(dv);
           for (size_t c = 0; c < L; ++c) {
             b0[c] += dd[c];
@@ -391,11 +386,13 @@ float IirStreamingLayer::potential(int64_t t, uint32_t neuron) const {
   const uint32_t unit = neuron / uint32_t(lanes_);
   if (record_ && eval_step_[unit] == t) return u_eval_[neuron];
   const int64_t d = t - last_[unit];
-  const double a1 = a1_[neuron], b0 = b0_[neuron], r0 = r0_[neuron];
+  const size_t L = size_t(lanes_);
+  const float* rec = record_of(unit, L) + neuron % L;
+  const double a1 = rec[0], b0 = rec[L], r0 = rec[2 * L];
   const double g = std::pow(a_, double(d)), gr = std::pow(ar_, double(d));
   const double psp = cs_ * g * (a1 + double(d) * b0);
   const double ref =
-      slayer_ref_ ? cref_ * gr * (double(r1_[neuron]) + double(d) * r0) : cref_ * gr * r0;
+      slayer_ref_ ? cref_ * gr * (double(rec[3 * L]) + double(d) * r0) : cref_ * gr * r0;
   return float(psp + ref);
 }
 
