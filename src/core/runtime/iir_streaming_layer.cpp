@@ -233,12 +233,12 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
     F16& r1m = *reinterpret_cast<F16*>(rec + 3 * L + c0);  // SLAYER's form only
     F16 a1 = a1m, b0 = b0m, r0 = r0m, r1 = {};
     if (k.slayer) r1 = r1m;
-    if (d != 0) {  // to step t
-      a1 = g * (a1 + fd * b0);
-      b0 = g * b0;
-      if (k.slayer) r1 = gr * (r1 + fd * r0);
-      r0 = gr * r0;
-    }
+    // To step t, also when the unit is there (d = 0: a multiplication by 1 and an addition
+    // of 0 change no value), as a branch on d would be mispredicted often.
+    a1 = g * (a1 + fd * b0);
+    b0 = g * b0;
+    if (k.slayer) r1 = gr * (r1 + fd * r0);
+    r0 = gr * r0;
     // This step's input: a unit not reached takes a block of zeros, which leaves b0 as it is
     // (no branch: whether a unit was reached is data the branch predictor cannot learn).
     b0 = b0 + simd::load(drive + c0);

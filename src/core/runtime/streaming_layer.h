@@ -141,11 +141,17 @@ class StreamingLayer {
       // run get +0, which changes nothing (targets have 16 spare floats at their
       // end). Each block is summed over the group's spikes in a register, in
       // spike order.
-      for (int j = 0; j < run.len * C; j += 16) {
-        simd::F16 acc = simd::load(d + j);
-        for (size_t k = i; k < e; ++k)
-          acc += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_ + size_t(j));
-        simd::store(d + j, acc);
+      const int nj = run.len * C;
+      const float* w0 = wrow + size_t(spikes[i] - base) * seg_ci_stride_;
+      if (e - i == 1) {
+        for (int j = 0; j < nj; j += 16) simd::store(d + j, simd::load(d + j) + simd::load(w0 + j));
+      } else {
+        for (int j = 0; j < nj; j += 16) {
+          simd::F16 acc = simd::load(d + j);
+          for (size_t k = i; k < e; ++k)
+            acc += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_ + size_t(j));
+          simd::store(d + j, acc);
+        }
       }
     });
     synops_ += taps * uint64_t(C);
