@@ -24,7 +24,7 @@ void EventLabeller::on_step(int64_t step, const std::vector<uint32_t>& spikes, E
   for (uint32_t n : spikes) last_spike_[n / uint32_t(oc_)] = step;
   // The events decided now sit at random pixels of a table larger than the cache: their
   // entries are requested a few events ahead so that the misses overlap.
-  constexpr size_t kAhead = 8;
+  constexpr size_t kAhead = 32;
   const Pending* q = queue_.data();
   size_t end = head_;
   for (auto it = step_counts_.begin(); it != step_counts_.end() && it->first + window_ <= step;

@@ -221,9 +221,14 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
   using simd::F16;
   const size_t o = unit * size_t(L);
   float* const rec = record_of(unit, size_t(L));
-  const int64_t d = t - last_[unit];  // 0 for active units, which are at step t already
-  const F16 g = simd::splat<I>(decay(d)), gr = simd::splat<I>(ref_decay(d)),
-            fd = simd::splat<I>(float(d));
+  // From the unit's last step to t+1 in one go (d + 1 steps; d = 0 for active units), with
+  // this step's drive D entering at t: a1 <- G (a1 + (d+1) b0) + g1 D and b0 <- G b0 + g1 D,
+  // G = a^(d+1), the closed forms of d steps, the drive, and one step; likewise the
+  // refractory state (GR = ar^(d+1)). A unit not reached reads a block of zeros for D, so that
+  // whether a unit was reached (data the branch predictor cannot learn) is not a branch.
+  const int64_t d1 = t - last_[unit] + 1;
+  const F16 G = simd::splat<I>(decay(d1)), GR = simd::splat<I>(ref_decay(d1)),
+            fd1 = simd::splat<I>(float(d1));
   bool reach = false;
   const F16 zero = {};
   for (int c0 = 0; c0 < L; c0 += 16) {
@@ -231,29 +236,18 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
     F16& b0m = *reinterpret_cast<F16*>(rec + L + c0);
     F16& r0m = *reinterpret_cast<F16*>(rec + 2 * L + c0);
     F16& r1m = *reinterpret_cast<F16*>(rec + 3 * L + c0);  // SLAYER's form only
-    F16 a1 = a1m, b0 = b0m, r0 = r0m, r1 = {};
-    if (k.slayer) r1 = r1m;
-    // To step t, also when the unit is there (d = 0: a multiplication by 1 and an addition
-    // of 0 change no value), as a branch on d would be mispredicted often.
-    a1 = g * (a1 + fd * b0);
-    b0 = g * b0;
-    if (k.slayer) r1 = gr * (r1 + fd * r0);
-    r0 = gr * r0;
-    // This step's input: a unit not reached takes a block of zeros, which leaves b0 as it is
-    // (no branch: whether a unit was reached is data the branch predictor cannot learn).
-    b0 = b0 + simd::load(drive + c0);
+    const F16 a1 = a1m, b0 = b0m, r0 = r0m;
+    const F16 gd = k.g1 * simd::load(drive + c0);
     simd::store(sink + c0, zero);  // the drive buffer stays zero between steps
-    // to step t+1
     F16 rv;
     if (k.slayer) {
-      rv = k.gr1 * (r1 + r0);
+      rv = GR * (r1m + fd1 * r0);
       r1m = rv;
-      r0 = k.gr1 * r0;
     } else {
-      rv = k.gr1 * r0;
-      r0 = rv;
+      rv = GR * r0;
     }
-    const F16 x = k.g1 * (a1 + b0), y = k.g1 * b0;
+    const F16 r0n = k.slayer ? GR * r0 : rv;
+    const F16 x = G * (a1 + fd1 * b0) + gd, y = G * b0 + gd;
     a1m = x;
     b0m = y;
     const F16 uv = k.cs * x + k.cref * rv;
@@ -264,7 +258,7 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
       *reinterpret_cast<F16*>(ul) = uv;
       record(uint32_t(unit), ul, t + 1, c0, 16);
     }
-    r0m = uv >= k.theta ? r0 + k.inc : r0;  // a spike's refractory response starts at t+2
+    r0m = uv >= k.theta ? r0n + k.inc : r0n;  // a spike's refractory response starts at t+2
     out = simd::compress<I>(out, simd::at_least<I>(uv, k.theta), uint32_t(o) + uint32_t(c0));
   }
   last_[unit] = t + 1;

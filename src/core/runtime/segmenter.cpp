@@ -37,6 +37,7 @@ Segmenter::Segmenter(const ModelSpec& m, SensorSize sensor, SegmenterOptions opt
                 net_.latency_steps() + std::max(0, opt.label_tolerance_steps)) {
   net_.set_threads(opt.threads);
   input_bits_.assign((size_t(sensor.width) * sensor.height * 2 + 63) / 64, 0);
+  input_words_.assign((input_bits_.size() + 63) / 64, 0);
   labelled_.sensor = sensor;
   labelled_.add_zero_labels();
 }
@@ -45,12 +46,17 @@ void Segmenter::run_step() {
   auto t0 = std::chrono::steady_clock::now();
   // The input in neuron order (a bitmap, not the events' order): the first layer's scatter
   // then walks its state forward instead of jumping around the sensor.
+  // Only the words marked in input_words_ are read (a few hundred of thousands, at 1 M ev/s).
   input_.clear();
   if (input_count_ > 0)
-    for (size_t w = 0; w < input_bits_.size(); ++w) {
-      for (uint64_t m = input_bits_[w]; m != 0; m &= m - 1)
-        input_.push_back(uint32_t(w * 64 + size_t(std::countr_zero(m))));
-      input_bits_[w] = 0;
+    for (size_t s = 0; s < input_words_.size(); ++s) {
+      for (uint64_t sm = input_words_[s]; sm != 0; sm &= sm - 1) {
+        const size_t w = s * 64 + size_t(std::countr_zero(sm));
+        for (uint64_t m = input_bits_[w]; m != 0; m &= m - 1)
+          input_.push_back(uint32_t(w * 64 + size_t(std::countr_zero(m))));
+        input_bits_[w] = 0;
+      }
+      input_words_[s] = 0;
     }
   input_count_ = 0;
   const auto& out = net_.step(input_);
@@ -64,7 +70,19 @@ void Segmenter::run_step() {
 
 void Segmenter::push(const EventStream& c) {
   if (finished_) fail(source_, "", "events pushed after the end of the stream");
+  // The bitmap words of events a few ahead are requested early: events land anywhere on
+  // the sensor, and the network's state has evicted the bitmap from the cache by now.
+  constexpr size_t kAhead = 16;
+  const uint32_t width = uint32_t(sensor_.width), height = uint32_t(sensor_.height);
+  auto word_of = [&](size_t i) {
+    const uint32_t x = std::min<uint32_t>(c.x[i], width - 1),
+                   y = std::min<uint32_t>(c.y[i], height - 1);
+    return (y * width + x) >> 5;  // 2 bits (polarities) per pixel, 64 per word
+  };
+  for (size_t i = 0; i < std::min(c.size(), kAhead); ++i)
+    __builtin_prefetch(&input_bits_[word_of(i)], 1);
   for (size_t i = 0; i < c.size(); ++i) {
+    if (i + kAhead < c.size()) __builtin_prefetch(&input_bits_[word_of(i + kAhead)], 1);
     const uint64_t idx = events_in_ + i;
     const int64_t t = c.t[i];
     if (c.x[i] >= sensor_.width || c.y[i] >= sensor_.height)
@@ -93,6 +111,7 @@ void Segmenter::push(const EventStream& c) {
     const uint64_t bit = uint64_t(1) << (n & 63);
     input_count_ += (word & bit) == 0;
     word |= bit;
+    input_words_[n >> 12] |= uint64_t(1) << ((n >> 6) & 63);
     labeller_.push(c[i], step);
     if (masks_) masks_->add_event(t, c.x[i], c.y[i]);
   }

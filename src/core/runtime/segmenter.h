@@ -65,9 +65,10 @@ class Segmenter {
   bool started_ = false, finished_ = false;
   int64_t origin_ = 0, last_t_ = 0, cur_step_ = 0;
   uint64_t events_in_ = 0;
-  std::vector<uint32_t> input_;       // this step's input spikes, ascending
-  std::vector<uint64_t> input_bits_;  // this step's input neurons, one bit each
-  size_t input_count_ = 0;            // bits set in input_bits_
+  std::vector<uint32_t> input_;        // this step's input spikes, ascending
+  std::vector<uint64_t> input_bits_;   // this step's input neurons, one bit each
+  std::vector<uint64_t> input_words_;  // one bit per input_bits_ word that is not zero
+  size_t input_count_ = 0;             // bits set in input_bits_
   EventStream labelled_;
   std::vector<PredictionFrame> frames_;
   double net_seconds_ = 0;

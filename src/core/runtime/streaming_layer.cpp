@@ -55,6 +55,8 @@ StreamingLayer::StreamingLayer(const LayerSpec& l, int hin, int win)
     for (auto rt : reach(i, hout_)) row_taps_.push_back(rt);
   }
   row_begin_[size_t(hin_)] = int32_t(row_taps_.size());
+  for (int i = 0; i < hin_; ++i)
+    max_rows_ = std::max(max_rows_, row_begin_[size_t(i) + 1] - row_begin_[size_t(i)]);
   // Columns: one weight block per distinct sequence of kx (a few: stride phases, borders).
   std::vector<std::vector<int32_t>> kx_seqs;
   std::vector<size_t> seq_of(static_cast<size_t>(win_));

@@ -91,7 +91,8 @@ class StreamingLayer {
   SPIKEMS_INLINE void group_spikes(const uint32_t* spikes, size_t n) {
     // Branch-free grouping: every spike writes the slot of the next group, which only a
     // spike of a new position keeps (the first spike always starts a group).
-    groups_.resize(n + 1);
+    // Grown, never shrunk: a resize per step would value-initialise the elements each time.
+    if (groups_.size() < n + 1) groups_.resize(n + 1);
     Group* __restrict gr = groups_.data();
     size_t ng = 0;
     uint32_t prev = ~uint32_t(0);
@@ -102,7 +103,7 @@ class StreamingLayer {
       prev = pos;
     }
     gr[ng] = {0, uint32_t(n)};
-    groups_.resize(ng + 1);
+    ngroups_ = ng;
   }
   // Sets the bits of the units of 2^unit_shift positions that a run of len positions from op
   // reaches. len <= kernel <= 32: a run covers at most two bitmap words of positions, or its
@@ -173,6 +174,10 @@ class StreamingLayer {
     const int C = CT ? CT : cout_;
     const int nblk = unit_blocks_, ushift = std::countr_zero(unsigned(16 / C));
     const uint32_t pmask = uint32_t(16 / C - 1);
+    if (kMark && nblk == 2 && max_rows_ <= kCombineRows) {
+      add_drive_units_combined<CT>(spikes, at_unit);
+      return;
+    }
     uint64_t taps = 0;
     each_run([&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int ky,
                  uint32_t op) SPIKEMS_INLINE_LAMBDA {
@@ -192,23 +197,109 @@ class StreamingLayer {
     synops_ += taps * uint64_t(C);
   }
 
+  // add_drive_units() with marks, for runs spanning at most two units, combining in registers
+  // the runs that land on the same unit one after the other. The groups of one input row
+  // reach the same output rows, and neighbouring groups (input columns) the same or the next
+  // unit of each: adding each run to memory would chain every add to the previous one through
+  // store-to-load forwarding (~12 cycles a link). So per output row r of the input row (at
+  // most kCombineRows) two blocks are held, for a unit and the next, and written out (and
+  // their units marked) only when a run moves past them.
+  static constexpr int kCombineRows = 3;
+  template <int CT, class AtUnit>
+  SPIKEMS_INLINE void add_drive_units_combined(const uint32_t* spikes, AtUnit&& at_unit) {
+    using simd::F16;
+    const int C = CT ? CT : cout_;
+    const int ushift = std::countr_zero(unsigned(16 / C));
+    const uint32_t pmask = uint32_t(16 / C - 1), per_unit = pmask + 1;
+    constexpr uint32_t kNone = ~uint32_t(0) - 1;  // no unit held (kNone + 1 is no unit either)
+    uint64_t* __restrict tb = touched_bits_.data();
+    auto flush = [&](uint32_t u, F16 v) SPIKEMS_INLINE_LAMBDA {
+      float* __restrict d = at_unit(u);
+      simd::store(d, simd::load(d) + v);
+      tb[u >> 6] |= uint64_t(1) << (u & 63);
+    };
+    F16 lo[kCombineRows] = {}, hi[kCombineRows] = {};
+    uint32_t held[kCombineRows];
+    bool hi_used[kCombineRows];
+    for (int r = 0; r < kCombineRows; ++r) {
+      held[r] = kNone;
+      hi_used[r] = false;
+    }
+    const F16 zero = {};
+    uint64_t taps = 0;
+    each_group([&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int r0,
+                   int nrows) SPIKEMS_INLINE_LAMBDA {
+      taps += uint64_t(run.len) * uint64_t(e - i) * uint64_t(nrows);
+#pragma GCC unroll 3
+      for (int r = 0; r < kCombineRows; ++r) {
+        if (r >= nrows) break;
+        const auto [oy, ky] = row_taps_[size_t(r0 + r)];
+        const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
+        F16 w = simd::load(wrow + size_t(spikes[i] - base) * seg_ci_stride_);
+        for (size_t k = i + 1; k < e; ++k)
+          w += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_);
+        const uint32_t op = uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first);
+        const uint32_t u = op >> ushift, sh = op & pmask;  // rows need not start a unit
+        const bool cross = sh + uint32_t(run.len) > per_unit;
+        const int32_t* ix = &unit_shift_idx_[size_t(sh) * 32];
+        const F16 p0 = __builtin_shuffle(w, zero, simd::I16(simd::load(ix))),
+                  p1 = __builtin_shuffle(w, zero, simd::I16(simd::load(ix + 16)));
+        if (u == held[r]) {
+          lo[r] += p0;
+          hi[r] += p1;
+          hi_used[r] |= cross;
+        } else if (u == held[r] + 1) {
+          flush(held[r], lo[r]);
+          lo[r] = hi[r] + p0;
+          hi[r] = p1;
+          held[r] = u;
+          hi_used[r] = cross;
+        } else {
+          if (held[r] != kNone) {
+            flush(held[r], lo[r]);
+            if (hi_used[r]) flush(held[r] + 1, hi[r]);
+          }
+          lo[r] = p0;
+          hi[r] = p1;
+          held[r] = u;
+          hi_used[r] = cross;
+        }
+      }
+    });
+    for (int r = 0; r < kCombineRows; ++r)
+      if (held[r] != kNone) {
+        flush(held[r], lo[r]);
+        if (hi_used[r]) flush(held[r] + 1, hi[r]);
+      }
+    synops_ += taps * uint64_t(C);
+  }
+
   // Calls f(first spike, end spike, first input neuron of the position, run, ky, first
   // output position) for each group of the last mark_reached() and each output row it
   // reaches: the run is the group's len consecutive output positions in that row.
   template <class F>
   SPIKEMS_INLINE void each_run(F&& f) {
-    const size_t ng = groups_.size() - 1;
+    each_group([&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int r0,
+                   int nrows) SPIKEMS_INLINE_LAMBDA {
+      for (int ry = r0; ry < r0 + nrows; ++ry) {
+        const auto [oy, ky] = row_taps_[size_t(ry)];
+        f(i, e, base, run, int(ky), uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first));
+      }
+    });
+  }
+  // Calls f(first spike, end spike, first input neuron of the position, run, first row tap,
+  // row taps) for each group that reaches any output: its rows are row_taps_[first ..).
+  template <class F>
+  SPIKEMS_INLINE void each_group(F&& f) {
+    const size_t ng = ngroups_;
     const Group* gr = groups_.data();
     for (size_t g = 0; g < ng; ++g) {
       const uint32_t pos = gr[g].pos;
       const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
       const ColumnRun& run = col_run_[x];
       if (run.len == 0) continue;
-      for (int ry = row_begin_[y], r1 = row_begin_[y + 1]; ry < r1; ++ry) {
-        const auto [oy, ky] = row_taps_[size_t(ry)];
-        f(size_t(gr[g].first), size_t(gr[g + 1].first), pos * uint32_t(cin_), run, int(ky),
-          uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first));
-      }
+      f(size_t(gr[g].first), size_t(gr[g + 1].first), pos * uint32_t(cin_), run, row_begin_[y],
+        row_begin_[y + 1] - row_begin_[y]);
     }
   }
 
@@ -231,12 +322,14 @@ class StreamingLayer {
   // [shift][block][16] (16 selects zero), and how many 16-lane blocks a run can span.
   std::vector<int32_t> unit_shift_idx_;
   int unit_blocks_ = 0;
+  int max_rows_ = 0;  // the most output rows one input row reaches
   size_t seg_ky_stride_ = 0, seg_ci_stride_ = 0;
   std::vector<uint64_t> touched_bits_;  // one bit per output unit: reached this step
   struct Group {
     uint32_t pos, first;  // an input position and its first spike in the step's list
   };
-  std::vector<Group> groups_;
+  std::vector<Group> groups_;  // the first ngroups_ + 1 (an end marker) are this step's
+  size_t ngroups_ = 0;
   uint64_t synops_ = 0;
   uint64_t visits_ = 0;
   uint64_t spikes_ = 0;  // all computed, including the step ahead
