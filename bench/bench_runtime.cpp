@@ -225,6 +225,16 @@ BENCHMARK(BM_StreamingSegmentSparseIir)
     ->Arg(50)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+void BM_StreamingSegmentSparseIirAllThreads(benchmark::State& state) {
+  static ModelSpec model = bench_model(1, Discretisation::IIR);
+  run_segment(state, model, 200000, int(std::max(1u, std::thread::hardware_concurrency())));
+}
+BENCHMARK(BM_StreamingSegmentSparseIirAllThreads)
+    ->Arg(1)
+    ->Arg(10)
+    ->Arg(50)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // The same model with the exact IIR recursions (O(1) state per neuron instead of a ring of
 // future potential as long as the kernel).

@@ -48,6 +48,15 @@ void EventStream::add_zero_labels() {
   label.assign(t.size(), 0);
 }
 
+void EventStream::resize_labelled(size_t n) {
+  if (label.size() != t.size()) add_zero_labels();
+  t.resize(n);
+  x.resize(n);
+  y.resize(n);
+  p.resize(n);
+  label.resize(n);
+}
+
 void EventStream::append(const EventStream& o) {
   append(o, 0, o.size());
 }

@@ -47,6 +47,9 @@ class EventStream {
   void append(const EventStream& other, size_t begin, size_t end);
   // Gives every event label 0 (allocates the label array).
   void add_zero_labels();
+  // Resizes every array, labels included, to n events (new ones all zero), for writers that
+  // fill a block of events in place rather than one push_back() per event.
+  void resize_labelled(size_t n);
 
   // Index range of events with t in [t0, t1), by binary search (requires time order).
   std::pair<size_t, size_t> time_range(int64_t t0, int64_t t1) const;

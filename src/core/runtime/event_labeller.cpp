@@ -32,6 +32,14 @@ void EventLabeller::on_step(int64_t step, const std::vector<uint32_t>& spikes, E
     end += it->second;
   for (size_t i = head_; i < std::min(end, head_ + kAhead); ++i)
     __builtin_prefetch(&last_spike_[q[i].pixel]);
+  // The decided events are written in place (one resize, not a push_back per event).
+  const size_t o = out.size();
+  out.resize_labelled(o + (end - head_));
+  int64_t* __restrict ot = out.t.data() + o;
+  uint16_t* __restrict ox = out.x.data() + o;
+  uint16_t* __restrict oy = out.y.data() + o;
+  uint8_t* __restrict op = out.p.data() + o;
+  uint16_t* __restrict ol = out.label.data() + o;
   size_t i = head_;
   while (!step_counts_.empty() && step_counts_.front().first + window_ <= step) {
     const int64_t s = step_counts_.front().first;
@@ -40,7 +48,11 @@ void EventLabeller::on_step(int64_t step, const std::vector<uint32_t>& spikes, E
       const bool fg = last_spike_[q[i].pixel] >= s;
       fg_ += fg;
       const Event& ev = q[i].e;
-      out.push_back(ev.t, ev.x, ev.y, ev.p, uint16_t(fg ? 1 : 0));
+      ot[i - head_] = ev.t;
+      ox[i - head_] = ev.x;
+      oy[i - head_] = ev.y;
+      op[i - head_] = ev.p;
+      ol[i - head_] = uint16_t(fg);
     }
     step_counts_.pop_front();
   }
