@@ -280,13 +280,25 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
   group_spikes(spikes, n);
   float* drive = drive_.data();
   auto at = [&](uint32_t u) SPIKEMS_INLINE_LAMBDA { return drive + size_t(u) * L; };
+  // The lines a run will add to, requested kDriveAhead groups early.
+  auto ahead = [&](uint32_t op, uint32_t len) SPIKEMS_INLINE_LAMBDA {
+    const float* d = at(op);
+    for (size_t j = 0; j < size_t(len) * L; j += 16) __builtin_prefetch(d + j, 1);
+  };
+  constexpr int kDriveAhead = 8;
+  auto dense = [&]() SPIKEMS_INLINE_LAMBDA {
+    if (scattered_input_)
+      add_drive<CT, true, kDriveAhead>(spikes, at, ahead);
+    else
+      add_drive<CT, true>(spikes, at);
+  };
   if constexpr (CT == 0 || (CT < 16 && 16 % CT == 0)) {
     if (unit_shift_ > 0)
       add_drive_units<CT, true>(spikes, at);  // L = 16 lanes per unit
     else
-      add_drive<CT, true>(spikes, at);
+      dense();
   } else {
-    add_drive<CT, true>(spikes, at);
+    dense();
   }
   // 2. The units reached, in address order, to request their state ahead of the pass.
   reached_.clear();

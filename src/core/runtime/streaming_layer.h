@@ -45,6 +45,11 @@ class StreamingLayer {
   // Makes potential() exact for the neurons evaluated at the current step as well (it costs a
   // store per evaluated neuron, so it is off unless a test or tool asks).
   virtual void record_potentials(bool on) { (void)on; }
+  // Says that the input spikes land anywhere, as the sensor's events do (noise): the layer
+  // then requests the drive lines of each input position a few positions ahead. In later
+  // layers the spikes are clustered, the lines mostly in cache, and the requests cost more
+  // than they save (measured: docs/performance.md).
+  void set_scattered_input(bool on) { scattered_input_ = on; }
   // u[t] of an output neuron at the current step t (after fire(t)): the value compared with
   // theta. For tests and tools; see record_potentials().
   virtual float potential(int64_t t, uint32_t neuron) const = 0;
@@ -128,33 +133,36 @@ class StreamingLayer {
                  SPIKEMS_INLINE_LAMBDA { mark_run(op, uint32_t(run.len), unit_shift); });
   }
 
-  template <int CT, bool kMark = false, class At>
-  SPIKEMS_INLINE void add_drive(const uint32_t* spikes, At&& at) {
+  template <int CT, bool kMark = false, int kAhead = 0, class At, class A = std::nullptr_t>
+  SPIKEMS_INLINE void add_drive(const uint32_t* spikes, At&& at, A&& ahead = nullptr) {
     const int C = CT ? CT : cout_;
     uint64_t taps = 0;
-    each_run([&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int ky,
-                 uint32_t op) SPIKEMS_INLINE_LAMBDA {
-      if constexpr (kMark) mark_run(op, uint32_t(run.len), 0);
-      taps += uint64_t(run.len) * uint64_t(e - i);
-      float* __restrict d = at(op);
-      const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
-      // Whole blocks of 16: the weights are zero-padded, so the floats past the
-      // run get +0, which changes nothing (targets have 16 spare floats at their
-      // end). Each block is summed over the group's spikes in a register, in
-      // spike order.
-      const int nj = run.len * C;
-      const float* w0 = wrow + size_t(spikes[i] - base) * seg_ci_stride_;
-      if (e - i == 1) {
-        for (int j = 0; j < nj; j += 16) simd::store(d + j, simd::load(d + j) + simd::load(w0 + j));
-      } else {
-        for (int j = 0; j < nj; j += 16) {
-          simd::F16 acc = simd::load(d + j);
-          for (size_t k = i; k < e; ++k)
-            acc += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_ + size_t(j));
-          simd::store(d + j, acc);
-        }
-      }
-    });
+    each_run<kAhead>(
+        [&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int ky, uint32_t op)
+            SPIKEMS_INLINE_LAMBDA {
+              if constexpr (kMark) mark_run(op, uint32_t(run.len), 0);
+              taps += uint64_t(run.len) * uint64_t(e - i);
+              float* __restrict d = at(op);
+              const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
+              // Whole blocks of 16: the weights are zero-padded, so the floats past the
+              // run get +0, which changes nothing (targets have 16 spare floats at their
+              // end). Each block is summed over the group's spikes in a register, in
+              // spike order.
+              const int nj = run.len * C;
+              const float* w0 = wrow + size_t(spikes[i] - base) * seg_ci_stride_;
+              if (e - i == 1) {
+                for (int j = 0; j < nj; j += 16)
+                  simd::store(d + j, simd::load(d + j) + simd::load(w0 + j));
+              } else {
+                for (int j = 0; j < nj; j += 16) {
+                  simd::F16 acc = simd::load(d + j);
+                  for (size_t k = i; k < e; ++k)
+                    acc += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_ + size_t(j));
+                  simd::store(d + j, acc);
+                }
+              }
+            },
+        ahead);
     synops_ += taps * uint64_t(C);
   }
 
@@ -277,23 +285,37 @@ class StreamingLayer {
   // Calls f(first spike, end spike, first input neuron of the position, run, ky, first
   // output position) for each group of the last mark_reached() and each output row it
   // reaches: the run is the group's len consecutive output positions in that row.
-  template <class F>
-  SPIKEMS_INLINE void each_run(F&& f) {
-    each_group([&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int r0,
-                   int nrows) SPIKEMS_INLINE_LAMBDA {
-      for (int ry = r0; ry < r0 + nrows; ++ry) {
-        const auto [oy, ky] = row_taps_[size_t(ry)];
-        f(i, e, base, run, int(ky), uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first));
-      }
-    });
+  template <int kAhead = 0, class F, class A = std::nullptr_t>
+  SPIKEMS_INLINE void each_run(F&& f, A&& ahead = nullptr) {
+    each_group<kAhead>(
+        [&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int r0, int nrows)
+            SPIKEMS_INLINE_LAMBDA {
+              for (int ry = r0; ry < r0 + nrows; ++ry) {
+                const auto [oy, ky] = row_taps_[size_t(ry)];
+                f(i, e, base, run, int(ky), uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first));
+              }
+            },
+        ahead);
   }
   // Calls f(first spike, end spike, first input neuron of the position, run, first row tap,
   // row taps) for each group that reaches any output: its rows are row_taps_[first ..).
-  template <class F>
-  SPIKEMS_INLINE void each_group(F&& f) {
+  // With kAhead > 0, first calls ahead(first output position, len) for each run of the group
+  // kAhead groups on, for the caller to request the lines it will touch there.
+  template <int kAhead = 0, class F, class A = std::nullptr_t>
+  SPIKEMS_INLINE void each_group(F&& f, A&& ahead = nullptr) {
     const size_t ng = ngroups_;
     const Group* gr = groups_.data();
     for (size_t g = 0; g < ng; ++g) {
+      if constexpr (kAhead > 0) {
+        const size_t ga = std::min(g + kAhead, ng);  // the end marker has no runs
+        const uint32_t pos = gr[ga].pos;
+        const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
+        const ColumnRun& run = col_run_[x];
+        if (ga < ng)
+          for (int ry = row_begin_[y]; ry < row_begin_[y + 1]; ++ry)
+            ahead(uint32_t(row_taps_[size_t(ry)].first) * uint32_t(wout_) + uint32_t(run.first),
+                  uint32_t(run.len));
+      }
       const uint32_t pos = gr[g].pos;
       const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
       const ColumnRun& run = col_run_[x];
@@ -323,6 +345,7 @@ class StreamingLayer {
   std::vector<int32_t> unit_shift_idx_;
   int unit_blocks_ = 0;
   int max_rows_ = 0;  // the most output rows one input row reaches
+  bool scattered_input_ = false;
   size_t seg_ky_stride_ = 0, seg_ci_stride_ = 0;
   std::vector<uint64_t> touched_bits_;  // one bit per output unit: reached this step
   struct Group {

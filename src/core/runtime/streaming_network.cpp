@@ -23,6 +23,7 @@ StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width)
            "a " + std::to_string(width) + "x" + std::to_string(height) +
                " input is too small for this network");
     layers_.push_back(StreamingLayer::create(l, m.time_step_ms, h, w));
+    layers_.back()->set_scattered_input(k == 0);  // the sensor's events, noise included
     h = layers_.back()->out_height();
     w = layers_.back()->out_width();
     if (size_t(h) * w * l.out_channels >= (size_t(1) << 32))
