@@ -300,29 +300,30 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
   } else {
     dense();
   }
-  // 2. The units reached, in address order, to request their state ahead of the pass.
-  reached_.clear();
-  for (size_t w = 0; w < words; ++w)
-    for (uint64_t m = tb[w]; m != 0; m &= m - 1)
-      reached_.push_back(uint32_t(w * 64 + size_t(std::countr_zero(m))));
-
-  // 3. One pass in address order over the units reached or active: each is brought up to
-  // step t (reached ones only: active ones are there), takes its drive and steps to t+1.
-  // Every state line is loaded and stored once. The state of a layer is larger than the
-  // caches and noise spikes reach it anywhere, so the reached units' state is requested
-  // kAhead units early, to keep many independent misses in flight.
-  constexpr size_t kAhead = 32;
-  const size_t nr = reached_.size();
-  reached_.insert(reached_.end(), kAhead, nr ? reached_.back() : 0u);
-  const uint32_t* reached = reached_.data();
-  auto fetch = [&](uint32_t unit) SPIKEMS_INLINE_LAMBDA {
+  // 2. One pass in address order over the units reached or active: each goes to step t+1,
+  // taking its drive. Every state line is loaded and stored once. A layer's state is larger
+  // than the caches (and the other layers evict it between steps), so the state of the unit
+  // kAhead visits on is requested now, to keep many independent misses in flight: a second
+  // cursor walks the same bitmaps ahead of the pass.
+  constexpr int kAhead = 32;
+  auto fetch = [&](size_t unit) SPIKEMS_INLINE_LAMBDA {
     __builtin_prefetch(&last_[unit], 1);
-    const size_t o = size_t(unit) * L;
+    const size_t o = unit * L;
     for (size_t j = 0; j < L; j += 16) __builtin_prefetch(&drive[o + j], 1);
     const float* rec = record_of(unit, L);
     for (size_t j = 0; j < size_t(nvars_) * L; j += 16) __builtin_prefetch(rec + j, 1);
   };
-  for (size_t i = 0; i < std::min(nr, kAhead); ++i) fetch(reached[i]);
+  size_t ahead_word = 0;
+  uint64_t ahead_bits = words ? tb[0] | ab[0] : 0;
+  auto fetch_next = [&]() SPIKEMS_INLINE_LAMBDA {
+    while (ahead_bits == 0) {
+      if (++ahead_word >= words) return;
+      ahead_bits = tb[ahead_word] | ab[ahead_word];
+    }
+    fetch(ahead_word * 64 + size_t(std::countr_zero(ahead_bits)));
+    ahead_bits &= ahead_bits - 1;
+  };
+  for (int i = 0; i < kAhead; ++i) fetch_next();
   PassConsts k;
   if constexpr (kVector) {
     k.one = simd::splat<I>(1.f);
@@ -339,7 +340,7 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
   k.slayer = slayer_ref_;
   k.record = record_;
   uint32_t* out = spike_buf_.data();
-  size_t done = 0, visited = 0;
+  size_t visited = 0;
   for (size_t w = 0; w < words; ++w) {
     const uint64_t tw = tb[w], aw = ab[w], m = tw | aw;
     if (m == 0) continue;
@@ -350,20 +351,15 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
       const int b = std::countr_zero(mm);
       const size_t unit = w * 64 + size_t(b);
       bool reach;
+      fetch_next();
       if constexpr (kVector) {
         const size_t hit = size_t((tw >> b) & 1);
-        if (hit) fetch(reached[done + kAhead]);  // reached_ has kAhead spare entries
         float* const slot = drive + unit * L;
         float* const zeros = zero_drive_.data();
         reach = advance_unit<LT, I>(unit, t, hit ? slot : zeros, hit ? slot : zeros + LT, k, out);
-        done += hit;
       } else {
         const float* dv = nullptr;
-        if ((tw >> b) & 1) {
-          if (done + kAhead < nr) fetch(reached[done + kAhead]);
-          dv = drive + unit * L;
-          ++done;
-        }
+        if ((tw >> b) & 1) dv = drive + unit * L;
         if (dv != nullptr) {
           catch_up<CT>(uint32_t(unit), t);
           float* b0 = record_of(unit, L) + L;

@@ -10,18 +10,17 @@
 // touches one run of consecutive lines on one page (three or four 4 KiB pages, one per
 // array, before: ~5-15 % slower in the whole pipeline, where the TLB misses add up).
 //
-// A step has three parts. (1) drive: the weights of each input spike summed into a dense
+// A step has two parts. (1) drive: the weights of each input spike summed into a dense
 // buffer (one float per neuron, zero between steps), marking the units reached in a bitmap
-// on the way. (2) the reached units listed in address order from that bitmap. (3) one pass
-// in address order over every unit reached or still "active" (a cheap upper bound on its
-// future psp reaches theta; refractory terms are never positive): a unit is brought up to
-// step t in closed form and takes its drive (a block of zeros when not reached: no branch
-// the predictor would miss), then takes one uniform recursion step to t+1, and the neurons
-// whose potential reaches theta spike at t+1. Each state line is read and written once per
-// step, requested a few dozen reached units ahead so that the cache misses overlap. Idle
-// and decaying neurons cost nothing, and the spikes come
-// out sorted. The pass is compiled per instruction set (AVX-512, AVX2, baseline: compares
-// into bit masks, spikes written with a compress on AVX-512).
+// on the way. (2) one pass in address order over every unit reached or still "active" (a
+// cheap upper bound on its future psp reaches theta; refractory terms are never positive):
+// a unit goes from its last step to t+1 in closed form, taking its drive at t (a block of
+// zeros when not reached: no branch the predictor would miss), and the neurons whose
+// potential reaches theta spike at t+1. Each state line is read and written once per step,
+// requested a few dozen units ahead (a second cursor over the same bitmaps) so that the
+// cache misses overlap. Idle and decaying neurons cost nothing, and the spikes come out
+// sorted. The pass is compiled per instruction set (AVX-512, AVX2, baseline: compares into
+// bit masks, spikes written with a compress on AVX-512).
 #pragma once
 
 #include <cmath>
@@ -106,7 +105,6 @@ class IirStreamingLayer final : public StreamingLayer {
   HugeBuffer<uint32_t> spike_buf_;  // the spikes of one pass
   HugeBuffer<float> drive_;         // a step's drive, one float per neuron, zero between steps
   HugeBuffer<float> zero_drive_;    // the drive of a unit not reached (2 x lanes_, see pass)
-  std::vector<uint32_t> reached_;   // units reached by this step's input, in address order
   std::vector<float> scratch_;      // 2 x lanes when they are not a compile-time constant
   bool record_ = false;
   std::vector<float> u_eval_;
