@@ -220,14 +220,15 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
                                                     uint32_t*& out) {
   using simd::F16;
   const size_t o = unit * size_t(L);
-  float* const rec = record_of(unit, size_t(L));
+  float* const rec = k.state + unit * k.record_floats;
   // From the unit's last step to t+1 in one go (d + 1 steps; d = 0 for active units), with
   // this step's drive D entering at t: a1 <- G (a1 + (d+1) b0) + g1 D and b0 <- G b0 + g1 D,
   // G = a^(d+1), the closed forms of d steps, the drive, and one step; likewise the
   // refractory state (GR = ar^(d+1)). A unit not reached reads a block of zeros for D, so that
   // whether a unit was reached (data the branch predictor cannot learn) is not a branch.
-  const int64_t d1 = t - last_[unit] + 1;
-  const F16 G = simd::splat<I>(decay(d1)), GR = simd::splat<I>(ref_decay(d1)),
+  const int64_t d1 = t - k.last[unit] + 1;
+  const F16 G = simd::splat<I>(d1 < k.n_a ? k.pow_a[d1] : decay(d1)),
+            GR = simd::splat<I>(d1 < k.n_ar ? k.pow_ar[d1] : ref_decay(d1)),
             fd1 = simd::splat<I>(float(d1));
   bool reach = false;
   const F16 zero = {};
@@ -261,7 +262,7 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
     r0m = uv >= k.theta ? r0n + k.inc : r0n;  // a spike's refractory response starts at t+2
     out = simd::compress<I>(out, simd::at_least<I>(uv, k.theta), uint32_t(o) + uint32_t(c0));
   }
-  last_[unit] = t + 1;
+  k.last[unit] = t + 1;
   return reach;
 }
 
@@ -339,6 +340,14 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
   k.btheta = bound_theta_;
   k.slayer = slayer_ref_;
   k.record = record_;
+  k.state = state_.data();
+  k.last = last_.data();
+  k.record_floats = size_t(nvars_) * L;
+  k.pow_a = pow_a_.data();
+  k.pow_ar = pow_ar_.data();
+  k.n_a = int64_t(pow_a_.size());
+  k.n_ar = int64_t(pow_ar_.size());
+  float* const zeros = zero_drive_.data();
   uint32_t* out = spike_buf_.data();
   size_t visited = 0;
   for (size_t w = 0; w < words; ++w) {
@@ -355,7 +364,6 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
       if constexpr (kVector) {
         const size_t hit = size_t((tw >> b) & 1);
         float* const slot = drive + unit * L;
-        float* const zeros = zero_drive_.data();
         reach = advance_unit<LT, I>(unit, t, hit ? slot : zeros, hit ? slot : zeros + LT, k, out);
       } else {
         const float* dv = nullptr;

@@ -58,10 +58,17 @@ class IirStreamingLayer final : public StreamingLayer {
   template <int CT>
   bool update(uint32_t unit, int64_t t, uint32_t*& out);
   // Constants of a step's pass, in registers.
+  // Members are copied here, into locals the compiler can keep in registers: the pass's
+  // vector stores may alias anything, which otherwise forces a reload per unit.
   struct PassConsts {
     simd::F16 one, g1, gr1, cs, cref, ba, bb, inc;
     float theta, btheta;
     bool slayer, record;
+    float* state;
+    int64_t* last;
+    size_t record_floats;         // nvars_ * lanes
+    const float *pow_a, *pow_ar;  // decay tables and their lengths
+    int64_t n_a, n_ar;
   };
   template <int L, simd::Isa I>
   bool advance_unit(size_t unit, int64_t t, const float* drive, float* sink, const PassConsts& k,
