@@ -110,12 +110,15 @@ class StreamingLayer {
     gr[ng] = {0, uint32_t(n)};
     ngroups_ = ng;
   }
+  struct Group;
+  struct ColumnRun;
+  struct Geo;  // below
   // Sets the bits of the units of 2^unit_shift positions that a run of len positions from op
   // reaches. len <= kernel <= 32: a run covers at most two bitmap words of positions, or its
   // first and last unit and (for kernels wider than a unit) any between. The first two are
   // marked without a branch; touched_bits_ has a spare word.
-  SPIKEMS_INLINE void mark_run(uint32_t op, uint32_t len, int unit_shift) {
-    uint64_t* __restrict tb = touched_bits_.data();
+  static SPIKEMS_INLINE void mark_run(const Geo& geo, uint32_t op, uint32_t len, int unit_shift) {
+    uint64_t* __restrict tb = geo.tb;
     if (unit_shift == 0) {
       const uint64_t run_bits = (uint64_t(1) << len) - 1;
       tb[op >> 6] |= run_bits << (op & 63);
@@ -129,27 +132,30 @@ class StreamingLayer {
   }
   SPIKEMS_INLINE void mark_reached(const uint32_t* spikes, size_t n, int unit_shift) {
     group_spikes(spikes, n);
-    each_run([&](size_t, size_t, uint32_t, const ColumnRun& run, int, uint32_t op)
-                 SPIKEMS_INLINE_LAMBDA { mark_run(op, uint32_t(run.len), unit_shift); });
+    const Geo geo = geometry();
+    each_run(geo, [&](size_t, size_t, uint32_t, const ColumnRun& run, int, uint32_t op)
+                      SPIKEMS_INLINE_LAMBDA { mark_run(geo, op, uint32_t(run.len), unit_shift); });
   }
 
   template <int CT, bool kMark = false, int kAhead = 0, class At, class A = std::nullptr_t>
   SPIKEMS_INLINE void add_drive(const uint32_t* spikes, At&& at, A&& ahead = nullptr) {
     const int C = CT ? CT : cout_;
+    const Geo geo = geometry();
     uint64_t taps = 0;
     each_run<kAhead>(
+        geo,
         [&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int ky, uint32_t op)
             SPIKEMS_INLINE_LAMBDA {
-              if constexpr (kMark) mark_run(op, uint32_t(run.len), 0);
+              if constexpr (kMark) mark_run(geo, op, uint32_t(run.len), 0);
               taps += uint64_t(run.len) * uint64_t(e - i);
               float* __restrict d = at(op);
-              const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
+              const float* wrow = &geo.wseg[run.weights + size_t(ky) * geo.ky_stride];
               // Whole blocks of 16: the weights are zero-padded, so the floats past the
               // run get +0, which changes nothing (targets have 16 spare floats at their
               // end). Each block is summed over the group's spikes in a register, in
               // spike order.
               const int nj = run.len * C;
-              const float* w0 = wrow + size_t(spikes[i] - base) * seg_ci_stride_;
+              const float* w0 = wrow + size_t(spikes[i] - base) * geo.ci_stride;
               if (e - i == 1) {
                 for (int j = 0; j < nj; j += 16)
                   simd::store(d + j, simd::load(d + j) + simd::load(w0 + j));
@@ -157,7 +163,7 @@ class StreamingLayer {
                 for (int j = 0; j < nj; j += 16) {
                   simd::F16 acc = simd::load(d + j);
                   for (size_t k = i; k < e; ++k)
-                    acc += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_ + size_t(j));
+                    acc += simd::load(wrow + size_t(spikes[k] - base) * geo.ci_stride + size_t(j));
                   simd::store(d + j, acc);
                 }
               }
@@ -186,17 +192,18 @@ class StreamingLayer {
       add_drive_units_combined<CT>(spikes, at_unit);
       return;
     }
+    const Geo geo = geometry();
     uint64_t taps = 0;
-    each_run([&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int ky,
-                 uint32_t op) SPIKEMS_INLINE_LAMBDA {
-      if constexpr (kMark) mark_run(op, uint32_t(run.len), ushift);
+    each_run(geo, [&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int ky,
+                      uint32_t op) SPIKEMS_INLINE_LAMBDA {
+      if constexpr (kMark) mark_run(geo, op, uint32_t(run.len), ushift);
       taps += uint64_t(run.len) * uint64_t(e - i);
-      const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
-      simd::F16 w = simd::load(wrow + size_t(spikes[i] - base) * seg_ci_stride_);
+      const float* wrow = &geo.wseg[run.weights + size_t(ky) * geo.ky_stride];
+      simd::F16 w = simd::load(wrow + size_t(spikes[i] - base) * geo.ci_stride);
       for (size_t k = i + 1; k < e; ++k)
-        w += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_);
+        w += simd::load(wrow + size_t(spikes[k] - base) * geo.ci_stride);
       float* __restrict d = at_unit(op >> ushift);
-      const int32_t* ix = &unit_shift_idx_[size_t(op & pmask) * size_t(nblk) * 16];
+      const int32_t* ix = &geo.shift_idx[size_t(op & pmask) * size_t(nblk) * 16];
       const simd::F16 zero = {};
       for (int b = 0; b < nblk; ++b)
         simd::store(d + 16 * b,
@@ -220,7 +227,8 @@ class StreamingLayer {
     const int ushift = std::countr_zero(unsigned(16 / C));
     const uint32_t pmask = uint32_t(16 / C - 1), per_unit = pmask + 1;
     constexpr uint32_t kNone = ~uint32_t(0) - 1;  // no unit held (kNone + 1 is no unit either)
-    uint64_t* __restrict tb = touched_bits_.data();
+    const Geo geo = geometry();
+    uint64_t* __restrict tb = geo.tb;
     auto flush = [&](uint32_t u, F16 v) SPIKEMS_INLINE_LAMBDA {
       float* __restrict d = at_unit(u);
       simd::store(d, simd::load(d) + v);
@@ -235,21 +243,21 @@ class StreamingLayer {
     }
     const F16 zero = {};
     uint64_t taps = 0;
-    each_group([&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int r0,
-                   int nrows) SPIKEMS_INLINE_LAMBDA {
+    each_group(geo, [&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int r0,
+                        int nrows) SPIKEMS_INLINE_LAMBDA {
       taps += uint64_t(run.len) * uint64_t(e - i) * uint64_t(nrows);
 #pragma GCC unroll 3
       for (int r = 0; r < kCombineRows; ++r) {
         if (r >= nrows) break;
-        const auto [oy, ky] = row_taps_[size_t(r0 + r)];
-        const float* wrow = &wseg_[run.weights + size_t(ky) * seg_ky_stride_];
-        F16 w = simd::load(wrow + size_t(spikes[i] - base) * seg_ci_stride_);
+        const auto [oy, ky] = geo.row_taps[size_t(r0 + r)];
+        const float* wrow = &geo.wseg[run.weights + size_t(ky) * geo.ky_stride];
+        F16 w = simd::load(wrow + size_t(spikes[i] - base) * geo.ci_stride);
         for (size_t k = i + 1; k < e; ++k)
-          w += simd::load(wrow + size_t(spikes[k] - base) * seg_ci_stride_);
-        const uint32_t op = uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first);
+          w += simd::load(wrow + size_t(spikes[k] - base) * geo.ci_stride);
+        const uint32_t op = uint32_t(oy) * geo.wout + uint32_t(run.first);
         const uint32_t u = op >> ushift, sh = op & pmask;  // rows need not start a unit
         const bool cross = sh + uint32_t(run.len) > per_unit;
-        const int32_t* ix = &unit_shift_idx_[size_t(sh) * 32];
+        const int32_t* ix = &geo.shift_idx[size_t(sh) * 32];
         const F16 p0 = __builtin_shuffle(w, zero, simd::I16(simd::load(ix))),
                   p1 = __builtin_shuffle(w, zero, simd::I16(simd::load(ix + 16)));
         if (u == held[r]) {
@@ -286,42 +294,43 @@ class StreamingLayer {
   // output position) for each group of the last mark_reached() and each output row it
   // reaches: the run is the group's len consecutive output positions in that row.
   template <int kAhead = 0, class F, class A = std::nullptr_t>
-  SPIKEMS_INLINE void each_run(F&& f, A&& ahead = nullptr) {
+  SPIKEMS_INLINE void each_run(const Geo& geo, F&& f, A&& ahead = nullptr) {
     each_group<kAhead>(
+        geo,
         [&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int r0, int nrows)
             SPIKEMS_INLINE_LAMBDA {
               for (int ry = r0; ry < r0 + nrows; ++ry) {
-                const auto [oy, ky] = row_taps_[size_t(ry)];
-                f(i, e, base, run, int(ky), uint32_t(oy) * uint32_t(wout_) + uint32_t(run.first));
+                const auto [oy, ky] = geo.row_taps[size_t(ry)];
+                f(i, e, base, run, int(ky), uint32_t(oy) * geo.wout + uint32_t(run.first));
               }
             },
         ahead);
   }
   // Calls f(first spike, end spike, first input neuron of the position, run, first row tap,
-  // row taps) for each group that reaches any output: its rows are row_taps_[first ..).
+  // row taps) for each group that reaches any output: its rows are geo.row_taps[first ..).
   // With kAhead > 0, first calls ahead(first output position, len) for each run of the group
   // kAhead groups on, for the caller to request the lines it will touch there.
   template <int kAhead = 0, class F, class A = std::nullptr_t>
-  SPIKEMS_INLINE void each_group(F&& f, A&& ahead = nullptr) {
-    const size_t ng = ngroups_;
-    const Group* gr = groups_.data();
+  SPIKEMS_INLINE void each_group(const Geo& geo, F&& f, A&& ahead = nullptr) {
+    const size_t ng = geo.ngroups;
+    const Group* gr = geo.groups;
     for (size_t g = 0; g < ng; ++g) {
       if constexpr (kAhead > 0) {
         const size_t ga = std::min(g + kAhead, ng);  // the end marker has no runs
         const uint32_t pos = gr[ga].pos;
-        const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
-        const ColumnRun& run = col_run_[x];
+        const uint32_t y = geo.div_win(pos), x = pos - y * geo.win;
+        const ColumnRun& run = geo.cols[x];
         if (ga < ng)
-          for (int ry = row_begin_[y]; ry < row_begin_[y + 1]; ++ry)
-            ahead(uint32_t(row_taps_[size_t(ry)].first) * uint32_t(wout_) + uint32_t(run.first),
+          for (int ry = geo.row_begin[y]; ry < geo.row_begin[y + 1]; ++ry)
+            ahead(uint32_t(geo.row_taps[size_t(ry)].first) * geo.wout + uint32_t(run.first),
                   uint32_t(run.len));
       }
       const uint32_t pos = gr[g].pos;
-      const uint32_t y = div_win_(pos), x = pos - y * uint32_t(win_);
-      const ColumnRun& run = col_run_[x];
+      const uint32_t y = geo.div_win(pos), x = pos - y * geo.win;
+      const ColumnRun& run = geo.cols[x];
       if (run.len == 0) continue;
-      f(size_t(gr[g].first), size_t(gr[g + 1].first), pos * uint32_t(cin_), run, row_begin_[y],
-        row_begin_[y + 1] - row_begin_[y]);
+      f(size_t(gr[g].first), size_t(gr[g + 1].first), pos * geo.cin, run, geo.row_begin[y],
+        geo.row_begin[y + 1] - geo.row_begin[y]);
     }
   }
 
@@ -353,6 +362,37 @@ class StreamingLayer {
   };
   std::vector<Group> groups_;  // the first ngroups_ + 1 (an end marker) are this step's
   size_t ngroups_ = 0;
+  // The members the drive loops read, copied into a local: the loops' vector stores may alias
+  // anything, so members would be reloaded for every run; a local stays in registers.
+  struct Geo {
+    const Group* groups;
+    size_t ngroups;
+    FastDiv div_win;
+    uint32_t win, wout, cin;
+    const ColumnRun* cols;
+    const int32_t* row_begin;
+    const std::pair<int32_t, int32_t>* row_taps;
+    const float* wseg;
+    size_t ky_stride, ci_stride;
+    const int32_t* shift_idx;
+    uint64_t* tb;
+  };
+  SPIKEMS_INLINE Geo geometry() {
+    return Geo{groups_.data(),
+               ngroups_,
+               div_win_,
+               uint32_t(win_),
+               uint32_t(wout_),
+               uint32_t(cin_),
+               col_run_.data(),
+               row_begin_.data(),
+               row_taps_.data(),
+               wseg_.data(),
+               seg_ky_stride_,
+               seg_ci_stride_,
+               unit_shift_idx_.data(),
+               touched_bits_.data()};
+  }
   uint64_t synops_ = 0;
   uint64_t visits_ = 0;
   uint64_t spikes_ = 0;  // all computed, including the step ahead
