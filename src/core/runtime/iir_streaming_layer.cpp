@@ -19,6 +19,10 @@ namespace spikems {
 //
 // Bound: with no new drive, u_psp[t+n] = cs a^n (a1 + n b0) <= cs (a max(a1,0) + M max(b0,0))
 // for every n >= 1, where M = max_{n>=1} n a^n. Below theta means no spike until new drive.
+//
+// Stored scaled, in units of potential: cs*a1 and cs*b0 (the weights are multiplied by cs
+// once, at load time) and cref*r0 (cref*r1), so that u = a1 + r (two multiplications fewer
+// per neuron and step) and a spike adds cref*inc to r0.
 
 IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int win)
     : StreamingLayer(l, hin, win),
@@ -28,8 +32,6 @@ IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int
   cs_ = std::exp(1.0) * ts / double(l.neuron.tau_s);
   const double mult = -double(l.neuron.scale_ref) * double(l.neuron.theta);
   cref_ = slayer_ref_ ? mult * std::exp(1.0) * ts / double(l.neuron.tau_r) : mult;
-  cs_f_ = float(cs_);
-  cref_f_ = float(cref_);
   spike_inc_ = slayer_ref_ ? 1.f : float(1.0 / ar_);
   double m = 0;
   for (int n = 1; n < 1 << 20; ++n) {
@@ -37,8 +39,10 @@ IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int
     if (v < m) break;  // n a^n rises to its peak, then falls
     m = v;
   }
-  bound_a1_ = float(cs_ * a_);
-  bound_b0_ = float(cs_ * m);
+  bound_a1_ = float(a_);  // the state carries cs
+  bound_b0_ = float(m);
+  spike_inc_ = float(double(spike_inc_) * cref_);
+  for (float& w : wseg_) w = float(double(w) * cs_);
   // A hair low: float rounding of the state and of the bound must err on "may reach".
   bound_theta_ = theta_ - 1e-4f * std::fabs(theta_);
   // a^d for every gap until it drops below the smallest normal float (a neuron untouched that
@@ -172,7 +176,7 @@ SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t, uint32_t
   const int L = LT ? LT : lanes_;
   const size_t o = size_t(unit) * size_t(L);
   const float g1 = decay(1), gr1 = ref_decay(1);
-  const float cs = cs_f_, cref = cref_f_, ba = bound_a1_, bb = bound_b0_;
+  const float ba = bound_a1_, bb = bound_b0_;
   float* __restrict a1 = record_of(unit, L);
   float* __restrict b0 = a1 + L;
   float* __restrict r0 = a1 + 2 * L;
@@ -193,7 +197,7 @@ SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t, uint32_t
     const float x = g1 * (a1[c] + b0[c]), y = g1 * b0[c];
     a1[c] = x;
     b0[c] = y;
-    u[c] = cs * x + cref * r[c];
+    u[c] = x + r[c];
     bnd[c] = ba * std::max(x, 0.f) + bb * std::max(y, 0.f);
   }
   last_[unit] = t + 1;
@@ -251,7 +255,7 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
     const F16 x = G * (a1 + fd1 * b0) + gd, y = G * b0 + gd;
     a1m = x;
     b0m = y;
-    const F16 uv = k.cs * x + k.cref * rv;
+    const F16 uv = x + rv;
     const F16 bv = k.ba * (x < zero ? zero : x) + k.bb * (y < zero ? zero : y);
     reach |= simd::at_least<I>(bv, k.btheta) != 0;
     if (k.record) {
@@ -330,8 +334,6 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
     k.one = simd::splat<I>(1.f);
     k.g1 = simd::splat<I>(decay(1));
     k.gr1 = simd::splat<I>(ref_decay(1));
-    k.cs = simd::splat<I>(cs_f_);
-    k.cref = simd::splat<I>(cref_f_);
     k.ba = simd::splat<I>(bound_a1_);
     k.bb = simd::splat<I>(bound_b0_);
     k.inc = simd::splat<I>(spike_inc_);
@@ -400,9 +402,8 @@ float IirStreamingLayer::potential(int64_t t, uint32_t neuron) const {
   const float* rec = record_of(unit, L) + neuron % L;
   const double a1 = rec[0], b0 = rec[L], r0 = rec[2 * L];
   const double g = std::pow(a_, double(d)), gr = std::pow(ar_, double(d));
-  const double psp = cs_ * g * (a1 + double(d) * b0);
-  const double ref =
-      slayer_ref_ ? cref_ * gr * (double(rec[3 * L]) + double(d) * r0) : cref_ * gr * r0;
+  const double psp = g * (a1 + double(d) * b0);  // the state is scaled (see the top)
+  const double ref = slayer_ref_ ? gr * (double(rec[3 * L]) + double(d) * r0) : gr * r0;
   return float(psp + ref);
 }
 

@@ -61,7 +61,7 @@ class IirStreamingLayer final : public StreamingLayer {
   // Members are copied here, into locals the compiler can keep in registers: the pass's
   // vector stores may alias anything, which otherwise forces a reload per unit.
   struct PassConsts {
-    simd::F16 one, g1, gr1, cs, cref, ba, bb, inc;
+    simd::F16 one, g1, gr1, ba, bb, inc;
     float theta, btheta;
     bool slayer, record;
     float* state;
@@ -90,7 +90,7 @@ class IirStreamingLayer final : public StreamingLayer {
 
   double a_, ar_, cs_, cref_;
   bool slayer_ref_;
-  float cs_f_, cref_f_, spike_inc_, bound_a1_, bound_b0_, bound_theta_;
+  float spike_inc_, bound_a1_, bound_b0_, bound_theta_;  // spike_inc_ is cref * increment
   std::vector<float> pow_a_, pow_ar_;
   simd::Isa isa_ = simd::best_isa();
   int unit_shift_ = 0;  // a unit is 2^unit_shift_ positions
