@@ -7,11 +7,20 @@
 #   bench/compare_runtime.sh 6 /tmp/bench_runtime_old build/bench_runtime \
 #       'StreamingSegmentSparseIir/10/'
 set -euo pipefail
-if [[ $# -lt 3 || $1 == -h || $1 == --help ]]; then
-  sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'
+usage() { sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'; }
+if [[ ${1:-} == -h || ${1:-} == --help ]]; then
+  usage
+  exit 0
+fi
+if [[ $# -lt 3 ]]; then
+  usage >&2
   exit 2
 fi
 reps=$1 a=$2 b=$3 filter=${4:-StreamingSegmentSparseIir/10/}
+if ! [[ $reps =~ ^[1-9][0-9]*$ ]]; then
+  echo "compare_runtime: REPS must be a positive integer, not '$reps'" >&2
+  exit 2
+fi
 for f in "$a" "$b"; do [[ -x $f ]] || { echo "compare_runtime: $f is not an executable" >&2; exit 1; }; done
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
@@ -20,7 +29,11 @@ for ((r = 0; r < reps; ++r)); do
     "$f" --benchmark_filter="$filter" --benchmark_format=json >"$tmp/run.json" 2>/dev/null
     python3 - "$tmp/run.json" >>"$tmp/rows.txt" <<'PY'
 import json, sys
-x = json.load(open(sys.argv[1]))["benchmarks"][0]
+runs = json.load(open(sys.argv[1]))["benchmarks"]
+if not runs or "realtime_x" not in runs[0]:
+    sys.exit("compare_runtime: the filter must select one pipeline benchmark "
+             "(BM_StreamingSegment...), which reports realtime_x")
+x = runs[0]
 layers = [x.get("us_step_L%d" % k, 0.0) for k in range(1, 7)]
 print(" ".join("%.3f" % v for v in layers + [1000.0 / x["realtime_x"]]))
 PY
