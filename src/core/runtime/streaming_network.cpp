@@ -46,11 +46,15 @@ inline void cpu_relax() {
 }  // namespace
 
 TaskPool::TaskPool(int threads) {
+  // Spinning only pays when every thread has a core of its own; otherwise a spinning thread
+  // takes the core of the one it waits for.
+  const unsigned cores = std::thread::hardware_concurrency();
+  spins_ = cores == 0 || unsigned(threads) <= cores ? kSpins : 0;
   for (int i = 1; i < threads; ++i)
     workers_.emplace_back([this] {
       uint64_t seen = 0;
       while (true) {
-        for (int s = 0; s < kSpins && generation_.load(std::memory_order_acquire) == seen &&
+        for (int s = 0; s < spins_ && generation_.load(std::memory_order_acquire) == seen &&
                         !stop_.load(std::memory_order_relaxed);
              ++s)
           cpu_relax();
@@ -98,7 +102,7 @@ void TaskPool::run(int n, const std::function<void(int)>& task) {
   }
   start_cv_.notify_all();
   work();
-  for (int s = 0; s < kSpins && remaining_.load(std::memory_order_acquire) != 0; ++s) cpu_relax();
+  for (int s = 0; s < spins_ && remaining_.load(std::memory_order_acquire) != 0; ++s) cpu_relax();
   if (remaining_.load(std::memory_order_acquire) != 0) {
     std::unique_lock<std::mutex> lk(mu_);
     done_cv_.wait(lk, [&] { return remaining_.load(std::memory_order_acquire) == 0; });

@@ -50,6 +50,7 @@ class TaskPool {
   std::atomic<uint64_t> generation_{0};
   std::atomic<bool> stop_{false};
   std::atomic<int> next_{0};
+  int spins_ = 0;  // pauses before sleeping (0 with more threads than cores)
 };
 
 class StreamingNetwork {
