@@ -32,7 +32,6 @@ IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int
   cs_ = std::exp(1.0) * ts / double(l.neuron.tau_s);
   const double mult = -double(l.neuron.scale_ref) * double(l.neuron.theta);
   cref_ = slayer_ref_ ? mult * std::exp(1.0) * ts / double(l.neuron.tau_r) : mult;
-  spike_inc_ = slayer_ref_ ? 1.f : float(1.0 / ar_);
   double m = 0;
   for (int n = 1; n < 1 << 20; ++n) {
     const double v = n * std::pow(a_, n);
@@ -41,7 +40,8 @@ IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int
   }
   bound_a1_ = float(a_);  // the state carries cs
   bound_b0_ = float(m);
-  spike_inc_ = float(double(spike_inc_) * cref_);
+  // A spike adds 1 (SLAYER's form) or 1/ar (SpikeMS form: it enters at t+2) to r0, in cref units.
+  spike_inc_ = float((slayer_ref_ ? 1.0 : 1.0 / ar_) * cref_);
   for (float& w : wseg_) w = float(double(w) * cs_);
   // A hair low: float rounding of the state and of the bound must err on "may reach".
   bound_theta_ = theta_ - 1e-4f * std::fabs(theta_);
@@ -74,7 +74,7 @@ IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int
   scratch_.assign(2 * size_t(lanes_), 0.f);
   spike_buf_.assign(n + 16);  // every neuron at most once per step, + compress()'s spare
   if (unit_shift_ > 0) prepare_unit_weights(unit_shift_);
-  // One slot per unit at most, + the spare floats of whole blocks past a run.
+  // A float per neuron, + the spare floats of whole blocks past a run.
   drive_.assign(n + 16 * size_t(std::max(unit_blocks_, 1)) + 64);
   zero_drive_.assign(2 * size_t(lanes_));  // zeros to read, then a block to write to
 }
@@ -331,9 +331,7 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
   for (int i = 0; i < kAhead; ++i) fetch_next();
   PassConsts k;
   if constexpr (kVector) {
-    k.one = simd::splat<I>(1.f);
     k.g1 = simd::splat<I>(decay(1));
-    k.gr1 = simd::splat<I>(ref_decay(1));
     k.ba = simd::splat<I>(bound_a1_);
     k.bb = simd::splat<I>(bound_b0_);
     k.inc = simd::splat<I>(spike_inc_);

@@ -7,8 +7,8 @@
 // The state is kept per *unit*: one position, or 16/C consecutive positions when C divides 16
 // and k*C <= 16 (the output layer's two channels: 8 positions), so that a unit is a whole
 // vector of lanes. A unit's record holds its lanes of a1, then of b0, r0 (and r1): a visit
-// touches one run of consecutive lines on one page (three or four 4 KiB pages, one per
-// array, before: ~5-15 % slower in the whole pipeline, where the TLB misses add up).
+// touches one run of consecutive lines (one line in each of three or four arrays before:
+// 4-15 % slower in the whole pipeline).
 //
 // A step has two parts. (1) drive: the weights of each input spike summed into a dense
 // buffer (one float per neuron, zero between steps), marking the units reached in a bitmap
@@ -61,7 +61,7 @@ class IirStreamingLayer final : public StreamingLayer {
   // Members are copied here, into locals the compiler can keep in registers: the pass's
   // vector stores may alias anything, which otherwise forces a reload per unit.
   struct PassConsts {
-    simd::F16 one, g1, gr1, ba, bb, inc;
+    simd::F16 g1, ba, bb, inc;
     float theta, btheta;
     bool slayer, record;
     float* state;
@@ -74,8 +74,6 @@ class IirStreamingLayer final : public StreamingLayer {
   bool advance_unit(size_t unit, int64_t t, const float* drive, float* sink, const PassConsts& k,
                     uint32_t*& out);
   // Keeps u[t] of lanes c0 .. c0+n of a unit (for potential()).
-  template <int L>
-  void update_pass(int64_t t, std::vector<uint32_t>& next);
   void record(uint32_t unit, const float* u, int64_t t, int c0, int n);
   // a^d and ar^d: tables until they drop below the smallest normal float, 0 beyond (pow()
   // only for kernels so slow that the table would exceed 65536 entries).
@@ -96,8 +94,8 @@ class IirStreamingLayer final : public StreamingLayer {
   int unit_shift_ = 0;  // a unit is 2^unit_shift_ positions
   int lanes_ = 0;       // neurons per unit
   // One record per unit: its lanes of a1, then of b0, r0 and (SLAYER's form only) r1, so
-  // that a visit touches one run of lines, on one page, rather than one line in each of
-  // three or four arrays. Units rounded up to a whole bitmap word, 64-byte aligned.
+  // that a visit touches one run of lines rather than one line in each of three or four
+  // arrays. Units rounded up to a whole bitmap word, 64-byte aligned.
   HugeBuffer<float> state_;
   int nvars_ = 3;
   SPIKEMS_INLINE float* record_of(size_t unit, size_t lanes) {

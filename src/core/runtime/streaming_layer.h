@@ -45,7 +45,7 @@ class StreamingLayer {
   // Makes potential() exact for the neurons evaluated at the current step as well (it costs a
   // store per evaluated neuron, so it is off unless a test or tool asks).
   virtual void record_potentials(bool on) { (void)on; }
-  // Says that the input spikes land anywhere, as the sensor's events do (noise): the layer
+  // Says that the input spikes land anywhere, as the sensor's events do (noise): an IIR layer
   // then requests the drive lines of each input position a few positions ahead. In later
   // layers the spikes are clustered, the lines mostly in cache, and the requests cost more
   // than they save (measured: docs/performance.md).
