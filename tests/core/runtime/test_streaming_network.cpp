@@ -3,8 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <random>
+#include <string>
+#include <thread>
 
 #include "common/test_paths.h"
 #include "core/runtime/dense_reference.h"
@@ -256,30 +260,51 @@ TEST(StreamingNetwork, AuthorsModelMatchesReferenceOutputs) {
   EXPECT_EQ(net.stats()[0].synops, expect);
 }
 
-// Threads change nothing: every layer's spikes and SynOps are identical step by step.
+// Threads change nothing: every layer's spikes and SynOps are identical step by step. Two
+// threads on a machine of two or more cores take the pool's spinning path, more threads
+// than cores its sleeping one.
 TEST(StreamingNetwork, ThreadsGiveIdenticalResults) {
-  for (auto disc : {Discretisation::FIR, Discretisation::IIR}) {
-    ModelSpec m = random_model(true, disc, RefractoryShape::SpikeMS, 13, 1.0f);
-    DenseTensor in = make_input(40, 24, 32, false, 14);
-    StreamingNetwork a(m, 24, 32), b(m, 24, 32);
-    b.set_threads(3);
-    size_t total = 0;
-    for (int t = 0; t < in.T; ++t) {
-      auto s = spikes_at(in, t);
-      a.step(s);
-      b.step(s);
+  for (int threads : {2, 3, 6})
+    for (auto disc : {Discretisation::FIR, Discretisation::IIR}) {
+      SCOPED_TRACE(std::to_string(threads) + " threads");
+      ModelSpec m = random_model(true, disc, RefractoryShape::SpikeMS, 13, 1.0f);
+      DenseTensor in = make_input(40, 24, 32, false, 14);
+      StreamingNetwork a(m, 24, 32), b(m, 24, 32);
+      b.set_threads(threads);
+      size_t total = 0;
+      for (int t = 0; t < in.T; ++t) {
+        auto s = spikes_at(in, t);
+        a.step(s);
+        b.step(s);
+        for (size_t k = 0; k < m.layers.size(); ++k) {
+          auto x = a.layer_spikes(k), y = b.layer_spikes(k);
+          std::sort(x.begin(), x.end());
+          std::sort(y.begin(), y.end());
+          ASSERT_EQ(x, y) << "step " << t << " layer " << k;
+          total += x.size();
+        }
+      }
+      EXPECT_GT(total, 100u);
       for (size_t k = 0; k < m.layers.size(); ++k) {
-        auto x = a.layer_spikes(k), y = b.layer_spikes(k);
-        std::sort(x.begin(), x.end());
-        std::sort(y.begin(), y.end());
-        ASSERT_EQ(x, y) << "step " << t << " layer " << k;
-        total += x.size();
+        EXPECT_EQ(a.stats()[k].synops, b.stats()[k].synops);
+        EXPECT_EQ(a.stats()[k].in_spikes, b.stats()[k].in_spikes);
       }
     }
-    EXPECT_GT(total, 100u);
-    for (size_t k = 0; k < m.layers.size(); ++k) {
-      EXPECT_EQ(a.stats()[k].synops, b.stats()[k].synops);
-      EXPECT_EQ(a.stats()[k].in_spikes, b.stats()[k].in_spikes);
+}
+
+// The pool runs every task exactly once per run and returns only when all are done, whether
+// its threads spin between runs or sleep (pauses between runs let them fall asleep).
+TEST(TaskPool, EveryTaskOncePerRun) {
+  for (int threads : {2, 4, 9}) {
+    TaskPool pool(threads);
+    std::vector<std::atomic<int>> hits(7);
+    for (int run = 0; run < 3000; ++run) {
+      const int n = 1 + run % 7;
+      pool.run(n, [&](int i) { hits[size_t(i)].fetch_add(1, std::memory_order_relaxed); });
+      for (int i = 0; i < 7; ++i)
+        ASSERT_EQ(hits[size_t(i)].exchange(0), i < n ? 1 : 0)
+            << threads << " threads, run " << run << ", task " << i;
+      if (run % 1000 == 999) std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
   }
 }
