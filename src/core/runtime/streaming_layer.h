@@ -246,14 +246,26 @@ class StreamingLayer {
     each_group(geo, [&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int r0,
                         int nrows) SPIKEMS_INLINE_LAMBDA {
       taps += uint64_t(run.len) * uint64_t(e - i) * uint64_t(nrows);
+      // The weights of every row, summed over the group's spikes in one loop (one loop exit
+      // to mispredict per group, not per row). Rows past nrows repeat the last one's (unused).
+      const float* wrows[kCombineRows];
+      F16 ws[kCombineRows];
+#pragma GCC unroll 3
+      for (int r = 0; r < kCombineRows; ++r) {
+        const int ky = geo.row_taps[size_t(r0 + std::min(r, nrows - 1))].second;
+        wrows[r] = &geo.wseg[run.weights + size_t(ky) * geo.ky_stride];
+        ws[r] = simd::load(wrows[r] + size_t(spikes[i] - base) * geo.ci_stride);
+      }
+      for (size_t k = i + 1; k < e; ++k) {
+        const size_t o = size_t(spikes[k] - base) * geo.ci_stride;
+#pragma GCC unroll 3
+        for (int r = 0; r < kCombineRows; ++r) ws[r] += simd::load(wrows[r] + o);
+      }
 #pragma GCC unroll 3
       for (int r = 0; r < kCombineRows; ++r) {
         if (r >= nrows) break;
-        const auto [oy, ky] = geo.row_taps[size_t(r0 + r)];
-        const float* wrow = &geo.wseg[run.weights + size_t(ky) * geo.ky_stride];
-        F16 w = simd::load(wrow + size_t(spikes[i] - base) * geo.ci_stride);
-        for (size_t k = i + 1; k < e; ++k)
-          w += simd::load(wrow + size_t(spikes[k] - base) * geo.ci_stride);
+        const int32_t oy = geo.row_taps[size_t(r0 + r)].first;
+        const F16 w = ws[r];
         const uint32_t op = uint32_t(oy) * geo.wout + uint32_t(run.first);
         const uint32_t u = op >> ushift, sh = op & pmask;  // rows need not start a unit
         const bool cross = sh + uint32_t(run.len) > per_unit;
