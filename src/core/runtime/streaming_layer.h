@@ -245,6 +245,7 @@ class StreamingLayer {
     uint64_t taps = 0;
     each_group(geo, [&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int r0,
                         int nrows) SPIKEMS_INLINE_LAMBDA {
+      if (nrows == 0) return;  // an input row that reaches no output row
       taps += uint64_t(run.len) * uint64_t(e - i) * uint64_t(nrows);
       // The weights of every row, summed over the group's spikes in one loop (one loop exit
       // to mispredict per group, not per row). Rows past nrows repeat the last one's (unused).

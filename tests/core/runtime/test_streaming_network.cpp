@@ -312,7 +312,8 @@ TEST(TaskPool, EveryTaskOncePerRun) {
 // Geometries and channel counts beside SpikeMS's: stride 1 with 5x5 and 4x4 kernels, a 4x4
 // transposed kernel, channel counts the runtime has no specialised code for (3, 5, 70: the
 // generic loops, more than 64 channels per position; 8: IIR units of two positions, the last
-// one half outside the 15x19 output), FIR and IIR.
+// one half outside the 15x19 output; 2: units of 8 positions after a stride-2 convolution
+// without padding, whose last input row and column reach no output), FIR and IIR.
 TEST(StreamingNetwork, OtherGeometriesAndChannelCountsMatchDense) {
   for (auto disc : {Discretisation::FIR, Discretisation::IIR}) {
     ModelSpec m;
@@ -324,7 +325,8 @@ TEST(StreamingNetwork, OtherGeometriesAndChannelCountsMatchDense) {
     for (const Row& r :
          {Row{LayerKind::Conv, 2, 5, 5, 1, 2, 0}, Row{LayerKind::Conv, 5, 70, 3, 2, 1, 0},
           Row{LayerKind::ConvTranspose, 70, 3, 4, 2, 1, 0}, Row{LayerKind::Conv, 3, 8, 4, 1, 0, 0},
-          Row{LayerKind::ConvTranspose, 8, 4, 3, 2, 1, 1}}) {
+          Row{LayerKind::ConvTranspose, 8, 4, 3, 2, 1, 1},
+          Row{LayerKind::Conv, 4, 2, 3, 2, 0, 0}}) {
       m.layers.push_back(make_layer(r.kind, r.ci, r.co, r.k, r.s, r.p, r.op, disc));
     }
     std::mt19937 rng(21);
