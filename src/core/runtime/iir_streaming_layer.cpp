@@ -366,12 +366,10 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
         float* const slot = drive + unit * L;
         reach = advance_unit<LT, I>(unit, t, hit ? slot : zeros, hit ? slot : zeros + LT, k, out);
       } else {
-        const float* dv = nullptr;
-        if ((tw >> b) & 1) dv = drive + unit * L;
-        if (dv != nullptr) {
+        if ((tw >> b) & 1) {
           catch_up<CT>(uint32_t(unit), t);
           float* b0 = record_of(unit, L) + L;
-          float* dd = const_cast<float*>(dv);
+          float* dd = drive + unit * L;
           for (size_t c = 0; c < L; ++c) {
             b0[c] += dd[c];
             dd[c] = 0.f;
