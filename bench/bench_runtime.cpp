@@ -128,7 +128,8 @@ EventStream synthetic_events(double rate, int64_t duration_us, uint32_t seed) {
 }
 
 // The whole pipeline (binning, network, labels) on 200 ms of events per iteration.
-void run_segment(benchmark::State& state, const ModelSpec& model, int64_t dur, int threads = 1) {
+void run_segment(benchmark::State& state, const ModelSpec& model, int64_t dur, int threads = 1,
+                 int block_steps = 1) {
   const double rate = double(state.range(0)) * 1e5;
   EventStream ev = synthetic_events(rate, dur, 42);
   double sim = 0, wall = 0, cpu = 0;
@@ -140,6 +141,7 @@ void run_segment(benchmark::State& state, const ModelSpec& model, int64_t dur, i
     state.PauseTiming();
     SegmenterOptions so;
     so.threads = threads;
+    so.block_steps = block_steps;
     auto seg = std::make_unique<Segmenter>(model, SensorSize{kW, kH}, so);
     state.ResumeTiming();
     auto t0 = std::chrono::steady_clock::now();
@@ -233,6 +235,16 @@ BENCHMARK(BM_StreamingSegmentSparseIirAllThreads)
     ->Arg(1)
     ->Arg(10)
     ->Arg(50)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// Steps taken layer by layer in blocks (second argument: steps per block; 1 = step by step).
+void BM_StreamingSegmentSparseIirBlocked(benchmark::State& state) {
+  static ModelSpec model = bench_model(1, Discretisation::IIR);
+  run_segment(state, model, 200000, 1, int(state.range(1)));
+}
+BENCHMARK(BM_StreamingSegmentSparseIirBlocked)
+    ->ArgsProduct({{1, 10, 50}, {1, 4, 16, 64}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

@@ -35,6 +35,7 @@ struct Args {
   bool mask_window_set = false;
   bool stats = false, quiet = false, score = false, iir = false;
   int threads = 1;
+  int block_steps = 0;  // 0: 16 for files, 1 for a live stream on stdin
   int64_t step_us = 0;
   int tolerance = 3;
   cli::ReadFlags read;
@@ -198,6 +199,7 @@ void run(const Args& a) {
   so.step_us = a.step_us;
   so.label_tolerance_steps = a.tolerance;
   so.threads = a.threads;
+  so.block_steps = a.block_steps > 0 ? a.block_steps : from_stdin ? 1 : 16;
   int64_t window = 0;
   if (!a.masks_dir.empty() || !a.boxes.empty() || a.mask_window_set || a.score)
     window = parse_duration_us(a.mask_window);
@@ -347,6 +349,11 @@ void add(CLI::App& app) {
   cmd->add_option("--threads", a.threads,
                   "Threads: the layers of each step run in parallel (at most one per layer)")
       ->check(CLI::Range(1, 256));
+  cmd->add_option("--block-steps", a.block_steps,
+                  "Steps the network takes layer by layer in one go: faster (each layer's state "
+                  "stays in the cache; 16 steps: ~1.2x at 1 M ev/s), but outputs come up to N-1 "
+                  "steps later. Default 16 for files, 1 (lowest latency) for stdin")
+      ->check(CLI::Range(1, 4096));
   cmd->add_flag("--iir", a.iir,
                 "Run FIR layers with the exact recursions of the same neurons (no kernel "
                 "truncation): 5-10x faster (docs/performance.md), spikes close to but not "

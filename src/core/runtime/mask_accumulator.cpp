@@ -25,7 +25,7 @@ void MaskAccumulator::start(int64_t index) {
   std::fill(events_.begin(), events_.end(), 0);
 }
 
-void MaskAccumulator::add_event(int64_t t, int x, int y) {
+void MaskAccumulator::add_event(int x, int y) {
   uint16_t& c = events_[size_t(y) * sensor_.width + x];
   if (c < 65535) ++c;
   dirty_ = true;

@@ -24,7 +24,7 @@ class MaskAccumulator {
  public:
   MaskAccumulator(SensorSize sensor, int out_height, int out_width, int out_channels,
                   int64_t origin_us, int64_t window_us);
-  void add_event(int64_t t_us, int x, int y);
+  void add_event(int x, int y);
   // Output spikes of the step starting at t_us.
   void add_spikes(int64_t t_us, const std::vector<uint32_t>& spikes);
   // Moves to `out` every frame that ends at or before t_us (nothing more can fall in it).

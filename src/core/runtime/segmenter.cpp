@@ -42,30 +42,54 @@ Segmenter::Segmenter(const ModelSpec& m, SensorSize sensor, SegmenterOptions opt
   labelled_.add_zero_labels();
 }
 
-void Segmenter::run_step() {
-  auto t0 = std::chrono::steady_clock::now();
+void Segmenter::end_step() {
   // The input in neuron order (a bitmap, not the events' order): the first layer's scatter
   // then walks its state forward instead of jumping around the sensor.
   // Only the words marked in input_words_ are read (a few hundred of thousands, at 1 M ev/s).
-  input_.clear();
+  if (inputs_.size() <= queued_) inputs_.resize(queued_ + 1);
+  std::vector<uint32_t>& input = inputs_[queued_];
+  input.clear();
   if (input_count_ > 0)
     for (size_t s = 0; s < input_words_.size(); ++s) {
       for (uint64_t sm = input_words_[s]; sm != 0; sm &= sm - 1) {
         const size_t w = s * 64 + size_t(std::countr_zero(sm));
         for (uint64_t m = input_bits_[w]; m != 0; m &= m - 1)
-          input_.push_back(uint32_t(w * 64 + size_t(std::countr_zero(m))));
+          input.push_back(uint32_t(w * 64 + size_t(std::countr_zero(m))));
         input_bits_[w] = 0;
       }
       input_words_[s] = 0;
     }
   input_count_ = 0;
-  const auto& out = net_.step(input_);
-  net_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const int64_t s = cur_step_;
-  if (masks_) masks_->add_spikes(origin_ + s * step_us_, out);
-  labeller_.on_step(s, out, labelled_);
+  if (masks_) mask_counts_.push_back(mask_events_.size());
+  ++queued_;
   ++cur_step_;
-  if (masks_) masks_->close_until(origin_ + cur_step_ * step_us_, frames_);
+  if (queued_ >= size_t(std::max(1, opt_.block_steps))) run_block();
+}
+
+void Segmenter::run_block() {
+  if (queued_ == 0) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  net_.step_block(inputs_.data(), queued_);
+  net_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const int64_t first = cur_step_ - int64_t(queued_);
+  size_t ev = 0;
+  for (size_t j = 0; j < queued_; ++j) {
+    const int64_t s = first + int64_t(j);
+    const std::vector<uint32_t>& out = net_.block_output(j);
+    if (masks_) {
+      // The step's events, then its spikes, then the frames that end with it (as they came).
+      for (; ev < mask_counts_[j]; ++ev) {
+        const uint32_t px = mask_events_[ev];
+        masks_->add_event(int(px % uint32_t(sensor_.width)), int(px / uint32_t(sensor_.width)));
+      }
+      masks_->add_spikes(origin_ + s * step_us_, out);
+    }
+    labeller_.on_step(s, out, labelled_);
+    if (masks_) masks_->close_until(origin_ + (s + 1) * step_us_, frames_);
+  }
+  queued_ = 0;
+  mask_events_.clear();
+  mask_counts_.clear();
 }
 
 void Segmenter::push(const EventStream& c) {
@@ -104,7 +128,7 @@ void Segmenter::push(const EventStream& c) {
                         std::to_string(t) + " us; sort the stream first (e.g. --sort)");
     last_t_ = t;
     // The event's step without a division per event: steps end at origin + k * step_us.
-    while (t >= origin_ + (cur_step_ + 1) * step_us_) run_step();
+    while (t >= origin_ + (cur_step_ + 1) * step_us_) end_step();
     const int64_t step = cur_step_;
     const uint32_t n = (uint32_t(c.y[i]) * uint32_t(sensor_.width) + c.x[i]) * 2u + c.p[i];
     uint64_t& word = input_bits_[n >> 6];
@@ -113,7 +137,7 @@ void Segmenter::push(const EventStream& c) {
     word |= bit;
     input_words_[n >> 12] |= uint64_t(1) << ((n >> 6) & 63);
     labeller_.push(c[i], step);
-    if (masks_) masks_->add_event(t, c.x[i], c.y[i]);
+    if (masks_) mask_events_.push_back(uint32_t(c.y[i]) * width + c.x[i]);
   }
   events_in_ += c.size();
 }
@@ -124,7 +148,8 @@ void Segmenter::finish() {
   if (!started_) return;
   // The current step, then enough empty steps to decide every queued event.
   const int64_t end = cur_step_ + labeller_.window_steps();
-  while (cur_step_ <= end) run_step();
+  while (cur_step_ <= end) end_step();
+  run_block();
   if (masks_) masks_->flush(frames_);
 }
 

@@ -26,6 +26,10 @@ struct SegmenterOptions {
   int label_tolerance_steps = 3;  // label window = latency (layers) + this
   int64_t mask_window_us = 0;     // 0: no mask frames
   int threads = 1;                // threads inside the network (StreamingNetwork::set_threads)
+  // Steps the network takes layer by layer in one go (StreamingNetwork::step_block): faster
+  // (each layer's state stays in the cache), but a step's output comes up to block_steps - 1
+  // steps later. 1 for the lowest latency (live streams).
+  int block_steps = 1;
 };
 
 class Segmenter {
@@ -54,7 +58,8 @@ class Segmenter {
   double network_seconds() const { return net_seconds_; }  // wall time inside the network
 
  private:
-  void run_step();  // the current step's input through the network
+  void end_step();   // the current step's input is complete: queues it for the network
+  void run_block();  // the queued steps through the network, then labels and masks
   std::string source_;
   SensorSize sensor_;
   int64_t step_us_;
@@ -65,7 +70,11 @@ class Segmenter {
   bool started_ = false, finished_ = false;
   int64_t origin_ = 0, last_t_ = 0, cur_step_ = 0;
   uint64_t events_in_ = 0;
-  std::vector<uint32_t> input_;        // this step's input spikes, ascending
+  std::vector<std::vector<uint32_t>> inputs_;  // the queued steps' input spikes, ascending
+  size_t queued_ = 0;                          // steps queued in inputs_
+  // Mask frames: the queued steps' events (pixel index), and how many each step has.
+  std::vector<uint32_t> mask_events_;
+  std::vector<size_t> mask_counts_;
   std::vector<uint64_t> input_bits_;   // this step's input neurons, one bit each
   std::vector<uint64_t> input_words_;  // one bit per input_bits_ word that is not zero
   size_t input_count_ = 0;             // bits set in input_bits_

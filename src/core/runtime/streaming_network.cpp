@@ -146,6 +146,35 @@ const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>&
   return emitted_.back();
 }
 
+void StreamingNetwork::step_block(const std::vector<uint32_t>* inputs, size_t n) {
+  const size_t L = layers_.size();
+  block_.resize(L);
+  for (auto& b : block_)
+    if (b.size() < n + 1) b.resize(n + 1);
+  if (pool_) {
+    for (size_t j = 0; j < n; ++j) block_[L - 1][j] = step(inputs[j]);
+    return;
+  }
+  for (size_t k = 0; k < L; ++k) {
+    // Layer k emits at step t+j what it computed at t+j-1: now_[k] first, then its own output.
+    std::vector<std::vector<uint32_t>>& out = block_[k];
+    out[0].swap(now_[k]);
+    const auto t0 = std::chrono::steady_clock::now();
+    for (size_t j = 0; j < n; ++j) {
+      const std::vector<uint32_t>& in = k == 0 ? inputs[j] : block_[k - 1][j];
+      out[j + 1].clear();
+      layers_[k]->step(t_ + int64_t(j), in.data(), in.size(), out[j + 1]);
+      in_spikes_[k] += in.size();
+    }
+    seconds_[k] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  for (size_t k = 0; k < L; ++k) {
+    if (n > 0) emitted_[k] = block_[k][n - 1];
+    now_[k].swap(block_[k][n]);
+  }
+  t_ += int64_t(n);
+}
+
 std::vector<LayerStats> StreamingNetwork::stats() const {
   std::vector<LayerStats> s(layers_.size());
   for (size_t k = 0; k < layers_.size(); ++k) {

@@ -62,6 +62,16 @@ class StreamingNetwork {
   // Advances one step with the given input spikes, input neuron index (y*W + x)*2 + p, each at
   // most once. Returns the output layer's spikes of this step, index (y*Wo + x)*Co + c.
   const std::vector<uint32_t>& step(const std::vector<uint32_t>& input);
+  // Advances n steps (inputs[j]: the input of the j-th) layer by layer: layer k runs all of them
+  // before layer k+1 starts. The spikes are those of as many step() calls, but each layer's state
+  // stays in the cache for the whole block instead of being evicted by the other layers at every
+  // step (the layers' state, megabytes each, is larger than the cache: docs/performance.md). The
+  // output layer's spikes of the block's j-th step are block_output(j), until the next call.
+  // With several threads (set_threads), the steps are taken one at a time, layers in parallel.
+  void step_block(const std::vector<uint32_t>* inputs, size_t n);
+  const std::vector<uint32_t>& block_output(size_t j) const {
+    return block_[layers_.size() - 1][j];
+  }
   // Threads for step(): within a step, each layer reads only its predecessor's spikes of t
   // (computed the step before) and writes its own of t+1, so the layers run in parallel.
   // Results do not depend on the thread count.
@@ -87,6 +97,9 @@ class StreamingNetwork {
   // Per layer: spikes emitted at the last step, spikes of the coming step, and a buffer the
   // layers write the step after that into.
   std::vector<std::vector<uint32_t>> emitted_, now_, ahead_;
+  // step_block(): per layer, the spikes it emits at each step of the block and (last) those
+  // it computed for the step after the block.
+  std::vector<std::vector<std::vector<uint32_t>>> block_;
   std::vector<uint64_t> in_spikes_;
   std::vector<double> seconds_;  // per layer
   std::unique_ptr<TaskPool> pool_;

@@ -44,7 +44,7 @@ TEST(EventLabeller, PixelsBeyondASmallerOutputTakeTheNearestOutputPixel) {
 TEST(MaskAccumulator, FramesCoverConsecutiveWindows) {
   MaskAccumulator m(SensorSize{5, 4}, 3, 4, 2, 1000, 10000);  // output smaller than the sensor
   std::vector<PredictionFrame> frames;
-  m.add_event(1500, 4, 3);
+  m.add_event(4, 3);
   m.add_spikes(2000, {uint32_t((2 * 4 + 3) * 2 + 0)});  // output pixel (3, 2), the corner
   m.close_until(11000, frames);                         // first window [1000, 11000) ends
   ASSERT_EQ(frames.size(), 1u);

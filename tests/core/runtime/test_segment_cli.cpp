@@ -111,6 +111,48 @@ TEST(SegmentCli, LabelsMasksBoxesAndStats) {
   EXPECT_NE(out.find("real-time factor"), std::string::npos);
 }
 
+// --block-steps changes when outputs are written, not what: labels, mask PNGs and boxes are
+// byte for byte those of step-by-step runs (the default for files is 16 steps per block).
+TEST(SegmentCli, BlockStepsGiveIdenticalOutputs) {
+  std::string d = scratch_dir();
+  std::string model = write_pass_off_model(d), ev = write_events(d);
+  auto slurp = [](const std::string& path) {
+    std::ifstream f(path, std::ios::binary);
+    std::stringstream s;
+    s << f.rdbuf();
+    return s.str();
+  };
+  std::vector<std::string> runs;
+  for (std::string block : {"1", "3", "", "500"}) {
+    const std::string o = d + "/b" + block;
+    std::string out;
+    ASSERT_EQ(
+        run_command(spikems_binary() + " segment --quiet --model " + model + " --input " + ev +
+                        " --out " + o + ".txt --masks-dir " + o + " --mask-window 5ms --boxes " +
+                        o + ".csv" + (block.empty() ? "" : " --block-steps " + block),
+                    &out),
+        0)
+        << out;
+    std::string all = slurp(o + ".txt") + slurp(o + ".csv");
+    for (int i = 0; i < 10; ++i) {
+      char name[32];
+      std::snprintf(name, sizeof name, "/mask_%06d.png", i);
+      all += slurp(o + name);
+    }
+    runs.push_back(all);
+    EXPECT_TRUE(std::filesystem::exists(o + "/mask_000007.png"));  // 40 ms in 5 ms windows
+  }
+  EXPECT_GT(runs[0].size(), 480u * 8);
+  for (size_t i = 1; i < runs.size(); ++i) EXPECT_EQ(runs[i], runs[0]) << "run " << i;
+  std::string out;
+  EXPECT_NE(run_command(spikems_binary() + " segment --quiet --model " + model + " --input " + ev +
+                            " --out " + d + "/zero.txt --block-steps 0",
+                        &out),
+            0);
+  EXPECT_NE(out.find("block-steps"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(d + "/zero.txt"));
+}
+
 // --iir runs the FIR model with the exact recursions of the same neurons: on this clean input
 // the labels are the same; a model whose kernels are not the sampled ones is refused.
 TEST(SegmentCli, IirOptionGivesTheSameLabelsHereAndRefusesOddKernels) {

@@ -9,10 +9,12 @@
 #include <random>
 #include <string>
 #include <thread>
+#include <tuple>
 
 #include "common/test_paths.h"
 #include "core/runtime/dense_reference.h"
 #include "core/runtime/iir_streaming_layer.h"
+#include "core/runtime/segmenter.h"
 #include "core/runtime/streaming_network.h"
 #include "reference_case.h"
 
@@ -290,6 +292,91 @@ TEST(StreamingNetwork, ThreadsGiveIdenticalResults) {
         EXPECT_EQ(a.stats()[k].in_spikes, b.stats()[k].in_spikes);
       }
     }
+}
+
+// Blocks of steps taken layer by layer (step_block) give the spikes of step-by-step calls:
+// every layer's spikes at the end of each block, the output of every step, and the counts.
+// Block sizes vary (0 included); the threaded network takes its steps one at a time.
+TEST(StreamingNetwork, BlocksGiveIdenticalResults) {
+  for (int threads : {1, 2})
+    for (auto disc : {Discretisation::FIR, Discretisation::IIR}) {
+      SCOPED_TRACE(std::to_string(threads) + " threads");
+      ModelSpec m = random_model(true, disc, RefractoryShape::SpikeMS, 21, 1.0f);
+      DenseTensor in = make_input(45, 24, 32, true, 22);
+      StreamingNetwork a(m, 24, 32), b(m, 24, 32);
+      b.set_threads(threads);
+      std::vector<std::vector<uint32_t>> inputs;
+      size_t total = 0;
+      int t = 0;
+      for (size_t n : {1, 3, 0, 7, 2, 16, 1, 5, 4, 6}) {
+        inputs.clear();
+        std::vector<std::vector<uint32_t>> want;
+        for (size_t j = 0; j < n; ++j, ++t) {
+          inputs.push_back(spikes_at(in, t));
+          want.push_back(a.step(inputs.back()));
+        }
+        b.step_block(inputs.data(), n);
+        ASSERT_EQ(b.steps_done(), a.steps_done());
+        for (size_t j = 0; j < n; ++j) {
+          ASSERT_EQ(b.block_output(j), want[j]) << "step " << t - int(n) + int(j);
+          total += want[j].size();
+        }
+        for (size_t k = 0; k < m.layers.size(); ++k)
+          ASSERT_EQ(a.layer_spikes(k), b.layer_spikes(k)) << "step " << t << " layer " << k;
+      }
+      ASSERT_EQ(t, in.T);
+      EXPECT_GT(total, 20u);
+      for (size_t k = 0; k < m.layers.size(); ++k) {
+        EXPECT_EQ(a.stats()[k].synops, b.stats()[k].synops);
+        EXPECT_EQ(a.stats()[k].in_spikes, b.stats()[k].in_spikes);
+        EXPECT_EQ(a.stats()[k].out_spikes, b.stats()[k].out_spikes);
+      }
+    }
+}
+
+// The segmenter's blocks change when outputs come, not what they are: the same labels (in
+// the same order) and the same mask frames for every block length.
+TEST(Segmenter, BlocksGiveIdenticalLabelsAndFrames) {
+  ModelSpec m = random_model(true, Discretisation::IIR, RefractoryShape::SpikeMS, 31, 1.0f);
+  DenseTensor in = make_input(60, 24, 32, true, 32);
+  EventStream ev;
+  for (int t = 0; t < in.T; ++t)
+    for (uint32_t n : spikes_at(in, t))
+      ev.push_back(1000 * t + int64_t(n % 997), uint16_t((n / 2) % 32), uint16_t((n / 2) / 32),
+                   uint8_t(n % 2));
+  ev.sort_by_time();
+  auto run = [&](int block) {
+    SegmenterOptions o;
+    o.block_steps = block;
+    o.mask_window_us = 7000;
+    Segmenter seg(m, SensorSize{32, 24}, o);
+    for (size_t b = 0; b < ev.size(); b += 333)
+      seg.push(ev.slice_index(b, std::min(ev.size(), b + 333)));
+    seg.finish();
+    return std::make_tuple(seg.labelled(), seg.frames(), seg.steps());
+  };
+  const auto [want, want_frames, want_steps] = run(1);
+  EXPECT_GE(want_steps, 59 + 6 + 3);  // the events' steps and the label window
+  ASSERT_EQ(want.size(), ev.size());
+  const size_t fg = size_t(std::count(want.label.begin(), want.label.end(), 1));
+  EXPECT_GT(fg, 10u);
+  EXPECT_LT(fg, ev.size());
+  ASSERT_GE(want_frames.size(), 9u);
+  for (int block : {2, 5, 16, 100}) {
+    SCOPED_TRACE(std::to_string(block) + " steps per block");
+    const auto [got, frames, steps] = run(block);
+    EXPECT_EQ(steps, want_steps);
+    ASSERT_EQ(got.size(), want.size());
+    EXPECT_EQ(got.t, want.t);
+    EXPECT_EQ(got.x, want.x);
+    EXPECT_EQ(got.label, want.label);
+    ASSERT_EQ(frames.size(), want_frames.size());
+    for (size_t f = 0; f < frames.size(); ++f) {
+      EXPECT_EQ(frames[f].t0_us, want_frames[f].t0_us);
+      EXPECT_EQ(frames[f].foreground, want_frames[f].foreground) << "frame " << f;
+      EXPECT_EQ(frames[f].events, want_frames[f].events) << "frame " << f;
+    }
+  }
 }
 
 // The pool runs every task exactly once per run and returns only when all are done, whether
