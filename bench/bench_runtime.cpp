@@ -248,6 +248,19 @@ BENCHMARK(BM_StreamingSegmentSparseIirBlocked)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
+// The same on all threads: the layers form a pipeline over blocks (1 = layers in parallel
+// within each step, as BM_StreamingSegmentSparseIirAllThreads). 1 s of events: the pipeline
+// fills and drains over layers - 1 blocks at each end, which 200 ms would overweight.
+void BM_StreamingSegmentSparseIirBlockedAllThreads(benchmark::State& state) {
+  static ModelSpec model = bench_model(1, Discretisation::IIR);
+  run_segment(state, model, 1000000, int(std::max(1u, std::thread::hardware_concurrency())),
+              int(state.range(1)));
+}
+BENCHMARK(BM_StreamingSegmentSparseIirBlockedAllThreads)
+    ->ArgsProduct({{1, 10, 50}, {1, 4, 16, 64}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
 // The same model with the exact IIR recursions (O(1) state per neuron instead of a ring of
 // future potential as long as the kernel).
 void BM_StreamingSegmentIir(benchmark::State& state) {

@@ -2,6 +2,7 @@
 
 #include <bit>
 #include <cmath>
+#include <utility>
 
 #include "core/util/error.h"
 
@@ -60,36 +61,37 @@ void Segmenter::end_step() {
       input_words_[s] = 0;
     }
   input_count_ = 0;
-  if (masks_) mask_counts_.push_back(mask_events_.size());
+  if (masks_) mask_counts_.push_back(std::exchange(step_events_, 0));
   ++queued_;
   ++cur_step_;
   if (queued_ >= size_t(std::max(1, opt_.block_steps))) run_block();
 }
 
 void Segmenter::run_block() {
-  if (queued_ == 0) return;
   const auto t0 = std::chrono::steady_clock::now();
-  net_.step_block(inputs_.data(), queued_);
+  const size_t ready = net_.step_block(inputs_.data(), queued_);
+  queued_ = 0;
   net_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const int64_t first = cur_step_ - int64_t(queued_);
-  size_t ev = 0;
-  for (size_t j = 0; j < queued_; ++j) {
-    const int64_t s = first + int64_t(j);
+  deliver(ready);
+}
+
+void Segmenter::deliver(size_t ready) {
+  for (size_t j = 0; j < ready; ++j) {
+    const int64_t s = out_step_++;
     const std::vector<uint32_t>& out = net_.block_output(j);
     if (masks_) {
       // The step's events, then its spikes, then the frames that end with it (as they came).
-      for (; ev < mask_counts_[j]; ++ev) {
-        const uint32_t px = mask_events_[ev];
+      for (uint32_t n = mask_counts_.front(); n > 0; --n) {
+        const uint32_t px = mask_events_.front();
+        mask_events_.pop_front();
         masks_->add_event(int(px % uint32_t(sensor_.width)), int(px / uint32_t(sensor_.width)));
       }
+      mask_counts_.pop_front();
       masks_->add_spikes(origin_ + s * step_us_, out);
     }
     labeller_.on_step(s, out, labelled_);
     if (masks_) masks_->close_until(origin_ + (s + 1) * step_us_, frames_);
   }
-  queued_ = 0;
-  mask_events_.clear();
-  mask_counts_.clear();
 }
 
 void Segmenter::push(const EventStream& c) {
@@ -137,7 +139,10 @@ void Segmenter::push(const EventStream& c) {
     word |= bit;
     input_words_[n >> 12] |= uint64_t(1) << ((n >> 6) & 63);
     labeller_.push(c[i], step);
-    if (masks_) mask_events_.push_back(uint32_t(c.y[i]) * width + c.x[i]);
+    if (masks_) {
+      mask_events_.push_back(uint32_t(c.y[i]) * width + c.x[i]);
+      ++step_events_;
+    }
   }
   events_in_ += c.size();
 }
@@ -150,6 +155,12 @@ void Segmenter::finish() {
   const int64_t end = cur_step_ + labeller_.window_steps();
   while (cur_step_ <= end) end_step();
   run_block();
+  while (net_.in_flight()) {  // the pipeline's last blocks (threads)
+    const auto t0 = std::chrono::steady_clock::now();
+    const size_t ready = net_.step_block(nullptr, 0);
+    net_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    deliver(ready);
+  }
   if (masks_) masks_->flush(frames_);
 }
 

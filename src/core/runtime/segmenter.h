@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -28,7 +29,8 @@ struct SegmenterOptions {
   int threads = 1;                // threads inside the network (StreamingNetwork::set_threads)
   // Steps the network takes layer by layer in one go (StreamingNetwork::step_block): faster
   // (each layer's state stays in the cache), but a step's output comes up to block_steps - 1
-  // steps later. 1 for the lowest latency (live streams).
+  // steps later (with threads, layers - 1 blocks more: the layers then work on different
+  // blocks at once). 1 for the lowest latency (live streams).
   int block_steps = 1;
 };
 
@@ -58,8 +60,9 @@ class Segmenter {
   double network_seconds() const { return net_seconds_; }  // wall time inside the network
 
  private:
-  void end_step();   // the current step's input is complete: queues it for the network
-  void run_block();  // the queued steps through the network, then labels and masks
+  void end_step();             // the current step's input is complete: queues it for the network
+  void run_block();            // the queued steps into the network
+  void deliver(size_t ready);  // the next `ready` steps' outputs to the labeller and masks
   std::string source_;
   SensorSize sensor_;
   int64_t step_us_;
@@ -72,9 +75,12 @@ class Segmenter {
   uint64_t events_in_ = 0;
   std::vector<std::vector<uint32_t>> inputs_;  // the queued steps' input spikes, ascending
   size_t queued_ = 0;                          // steps queued in inputs_
-  // Mask frames: the queued steps' events (pixel index), and how many each step has.
-  std::vector<uint32_t> mask_events_;
-  std::vector<size_t> mask_counts_;
+  int64_t out_step_ = 0;                       // the next step whose output comes
+  // Mask frames: the events (pixel index) of the steps whose output has not come yet, and how
+  // many each step has (the current step's are counted in step_events_).
+  std::deque<uint32_t> mask_events_;
+  std::deque<uint32_t> mask_counts_;
+  uint32_t step_events_ = 0;
   std::vector<uint64_t> input_bits_;   // this step's input neurons, one bit each
   std::vector<uint64_t> input_words_;  // one bit per input_bits_ word that is not zero
   size_t input_count_ = 0;             // bits set in input_bits_

@@ -1,6 +1,7 @@
 #include "core/runtime/streaming_network.h"
 
 #include <algorithm>
+#include <bit>
 #include <chrono>
 
 #include "core/util/error.h"
@@ -117,7 +118,22 @@ void StreamingNetwork::set_threads(int n) {
     pool_ = std::make_unique<TaskPool>(n);
 }
 
+void StreamingNetwork::run_in_pool(const std::function<void(int)>& run_layer) {
+  // Longest layers first (by their time so far), so that the last task claimed is a short
+  // one; sorted again after 1, 2, 4, ... runs, then every 1024.
+  const int L = int(layers_.size());
+  if (order_.size() != size_t(L) || std::has_single_bit(pool_runs_) || pool_runs_ % 1024 == 0) {
+    order_.resize(size_t(L));
+    for (int k = 0; k < L; ++k) order_[size_t(k)] = k;
+    std::stable_sort(order_.begin(), order_.end(),
+                     [&](int a, int b) { return seconds_[size_t(a)] > seconds_[size_t(b)]; });
+  }
+  ++pool_runs_;
+  pool_->run(L, [&](int i) { run_layer(order_[size_t(i)]); });
+}
+
 const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>& input) {
+  if (in_flight()) fail("streaming network", "", "step() while blocks are in flight");
   const int L = int(layers_.size());
   auto run = [&](int k) {
     const std::vector<uint32_t>& in = k == 0 ? input : now_[size_t(k - 1)];
@@ -127,52 +143,87 @@ const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>&
     seconds_[size_t(k)] +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
-  if (pool_) {
-    // Longest layers first, so that the last task claimed is a short one.
-    if (order_.size() != size_t(L) || (t_ & 255) == 0) {
-      order_.resize(size_t(L));
-      for (int k = 0; k < L; ++k) order_[size_t(k)] = k;
-      std::stable_sort(order_.begin(), order_.end(),
-                       [&](int a, int b) { return seconds_[size_t(a)] > seconds_[size_t(b)]; });
-    }
-    pool_->run(L, [&](int i) { run(order_[size_t(i)]); });
-  } else
+  if (pool_)
+    run_in_pool(run);
+  else
     for (int k = 0; k < L; ++k) run(k);
   for (int k = 0; k < L; ++k)
     in_spikes_[size_t(k)] += (k == 0 ? input : now_[size_t(k - 1)]).size();
   emitted_.swap(now_);  // spikes of t
   now_.swap(ahead_);    // spikes of t+1; ahead_ holds buffers to reuse
   ++t_;
+  ++taken_;
   return emitted_.back();
 }
 
-void StreamingNetwork::step_block(const std::vector<uint32_t>* inputs, size_t n) {
+void StreamingNetwork::run_layer_block(size_t k, int64_t t0, const std::vector<uint32_t>* in,
+                                       size_t n, std::vector<std::vector<uint32_t>>& out) {
+  if (out.size() < n) out.resize(n);
+  if (n == 0) return;
+  out[0].swap(now_[k]);
+  const auto c0 = std::chrono::steady_clock::now();
+  for (size_t j = 0; j < n; ++j) {
+    std::vector<uint32_t>& dst = j + 1 < n ? out[j + 1] : now_[k];
+    dst.clear();
+    layers_[k]->step(t0 + int64_t(j), in[j].data(), in[j].size(), dst);
+    in_spikes_[k] += in[j].size();
+  }
+  seconds_[k] += std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
+  emitted_[k] = out[n - 1];
+}
+
+size_t StreamingNetwork::step_block(const std::vector<uint32_t>* inputs, size_t n) {
   const size_t L = layers_.size();
+  if (pool_ && (n > 1 || in_flight())) {
+    pipeline_round(inputs, n);
+    // The block the output layer just ran, if any (round r: block r - (L-1)).
+    const size_t par = size_t((round_ - 1 - int64_t(L - 1)) & 1);
+    const size_t ready = pipe_steps_[L - 1][par];
+    ready_ = &pipe_[L - 1][par];
+    t_ += int64_t(ready);
+    return ready;
+  }
   block_.resize(L);
-  for (auto& b : block_)
-    if (b.size() < n + 1) b.resize(n + 1);
-  if (pool_) {
-    for (size_t j = 0; j < n; ++j) block_[L - 1][j] = step(inputs[j]);
-    return;
+  if (pool_) {  // one step, layers in parallel
+    if (n == 0) return 0;
+    block_[L - 1].resize(1);
+    block_[L - 1][0] = step(inputs[0]);
+  } else {
+    for (size_t k = 0; k < L; ++k)
+      run_layer_block(k, t_, k == 0 ? inputs : block_[k - 1].data(), n, block_[k]);
+    t_ += int64_t(n);
+    taken_ += int64_t(n);
   }
-  for (size_t k = 0; k < L; ++k) {
-    // Layer k emits at step t+j what it computed at t+j-1: now_[k] first, then its own output.
-    std::vector<std::vector<uint32_t>>& out = block_[k];
-    out[0].swap(now_[k]);
-    const auto t0 = std::chrono::steady_clock::now();
-    for (size_t j = 0; j < n; ++j) {
-      const std::vector<uint32_t>& in = k == 0 ? inputs[j] : block_[k - 1][j];
-      out[j + 1].clear();
-      layers_[k]->step(t_ + int64_t(j), in.data(), in.size(), out[j + 1]);
-      in_spikes_[k] += in.size();
+  ready_ = &block_[L - 1];
+  return n;
+}
+
+void StreamingNetwork::pipeline_round(const std::vector<uint32_t>* inputs, size_t n) {
+  const int L = int(layers_.size());
+  if (pipe_.size() != size_t(L)) {
+    pipe_.resize(size_t(L));
+    pipe_steps_.resize(size_t(L));
+    layer_t_.resize(size_t(L));
+  }
+  if (!in_flight()) {
+    // A fresh pipeline: every layer at the network's step, no block left from an earlier one.
+    for (int k = 0; k < L; ++k) {
+      layer_t_[size_t(k)] = t_;
+      pipe_steps_[size_t(k)] = {0, 0};
     }
-    seconds_[k] += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
-  for (size_t k = 0; k < L; ++k) {
-    if (n > 0) emitted_[k] = block_[k][n - 1];
-    now_[k].swap(block_[k][n]);
-  }
-  t_ += int64_t(n);
+  const int64_t r = round_;
+  auto run = [&](int k) {
+    const size_t par = size_t((r - k) & 1);
+    const size_t nb = k == 0 ? n : pipe_steps_[size_t(k - 1)][par];
+    const std::vector<uint32_t>* in = k == 0 ? inputs : pipe_[size_t(k - 1)][par].data();
+    run_layer_block(size_t(k), layer_t_[size_t(k)], in, nb, pipe_[size_t(k)][par]);
+    pipe_steps_[size_t(k)][par] = nb;
+    layer_t_[size_t(k)] += int64_t(nb);
+  };
+  run_in_pool(run);
+  taken_ += int64_t(n);
+  ++round_;
 }
 
 std::vector<LayerStats> StreamingNetwork::stats() const {

@@ -5,6 +5,7 @@
 // an input spike k steps later at the earliest.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -62,22 +63,27 @@ class StreamingNetwork {
   // Advances one step with the given input spikes, input neuron index (y*W + x)*2 + p, each at
   // most once. Returns the output layer's spikes of this step, index (y*Wo + x)*Co + c.
   const std::vector<uint32_t>& step(const std::vector<uint32_t>& input);
-  // Advances n steps (inputs[j]: the input of the j-th) layer by layer: layer k runs all of them
-  // before layer k+1 starts. The spikes are those of as many step() calls, but each layer's state
-  // stays in the cache for the whole block instead of being evicted by the other layers at every
-  // step (the layers' state, megabytes each, is larger than the cache: docs/performance.md). The
-  // output layer's spikes of the block's j-th step are block_output(j), until the next call.
-  // With several threads (set_threads), the steps are taken one at a time, layers in parallel.
-  void step_block(const std::vector<uint32_t>* inputs, size_t n);
-  const std::vector<uint32_t>& block_output(size_t j) const {
-    return block_[layers_.size() - 1][j];
-  }
+  // Advances n steps (inputs[j]: the input of the j-th) layer by layer: layer k runs all of
+  // them before layer k+1 starts. The spikes are those of as many step() calls, but each
+  // layer's state stays in the cache for the whole block instead of being evicted by the other
+  // layers at every step (the layers' state, megabytes each, is larger than the cache:
+  // docs/performance.md). Returns how many steps' outputs are ready, the oldest not returned
+  // yet: the output layer's spikes of each are block_output(0 ..), until the next call.
+  // On one thread that is this block. With threads (set_threads), the layers work on
+  // different blocks at once, layer k on the block of k calls before (a pipeline: no layer
+  // waits for another within a call), so outputs come layer_count() - 1 calls later; call with
+  // n = 0 while in_flight() to get the rest. A block of one step with nothing in flight is a
+  // step() (layers in parallel within the step, no delay).
+  size_t step_block(const std::vector<uint32_t>* inputs, size_t n);
+  const std::vector<uint32_t>& block_output(size_t j) const { return (*ready_)[j]; }
+  // Steps taken in whose outputs have not been returned yet (step() needs none).
+  bool in_flight() const { return taken_ > t_; }
   // Threads for step(): within a step, each layer reads only its predecessor's spikes of t
   // (computed the step before) and writes its own of t+1, so the layers run in parallel.
   // Results do not depend on the thread count.
   void set_threads(int n);
 
-  int64_t steps_done() const { return t_; }
+  int64_t steps_done() const { return t_; }                  // steps whose output was returned
   int latency_steps() const { return int(layers_.size()); }  // minimum, one per layer
   int in_height() const { return h_; }
   int in_width() const { return w_; }
@@ -86,25 +92,39 @@ class StreamingNetwork {
   int out_width() const { return layers_.back()->out_width(); }
   size_t layer_count() const { return layers_.size(); }
   StreamingLayer& layer(size_t k) { return *layers_[k]; }
-  const std::vector<uint32_t>& layer_spikes(size_t k) const { return emitted_[k]; }  // this step
+  // The spikes layer k emitted at its last step (with blocks in flight, layers are at
+  // different steps: compare once nothing is in flight).
+  const std::vector<uint32_t>& layer_spikes(size_t k) const { return emitted_[k]; }
   std::vector<LayerStats> stats() const;
   uint64_t total_synops() const;
 
  private:
   int h_, w_;
-  int64_t t_ = 0;
+  int64_t t_ = 0, taken_ = 0;  // steps whose output was returned; steps taken in
   std::vector<std::unique_ptr<StreamingLayer>> layers_;
   // Per layer: spikes emitted at the last step, spikes of the coming step, and a buffer the
   // layers write the step after that into.
   std::vector<std::vector<uint32_t>> emitted_, now_, ahead_;
-  // step_block(): per layer, the spikes it emits at each step of the block and (last) those
-  // it computed for the step after the block.
+  // Layer k's n steps from step t0 on inputs in[0 .. n): out[j] gets the spikes it emits at
+  // step t0+j (out[0]: those computed before, now_[k]); now_[k] then holds those of t0+n.
+  void run_layer_block(size_t k, int64_t t0, const std::vector<uint32_t>* in, size_t n,
+                       std::vector<std::vector<uint32_t>>& out);
+  void pipeline_round(const std::vector<uint32_t>* inputs, size_t n);
+  void run_in_pool(const std::function<void(int)>& run_layer);  // every layer once, on the pool
+  // step_block() on one thread: per layer, the spikes it emits at each step of the block.
   std::vector<std::vector<std::vector<uint32_t>>> block_;
+  // The pipeline (threads): per layer, the same for its blocks of even and odd rounds, their
+  // step counts, and the step each layer is at. Round r: layer k works on block r - k.
+  std::vector<std::array<std::vector<std::vector<uint32_t>>, 2>> pipe_;
+  std::vector<std::array<size_t, 2>> pipe_steps_;
+  std::vector<int64_t> layer_t_;
+  int64_t round_ = 0;
+  const std::vector<std::vector<uint32_t>>* ready_ = nullptr;
   std::vector<uint64_t> in_spikes_;
   std::vector<double> seconds_;  // per layer
   std::unique_ptr<TaskPool> pool_;
-  std::vector<int>
-      order_;  // layers by decreasing time so far, for the pool (re-sorted now and then)
+  std::vector<int> order_;  // layers by decreasing time so far, for the pool
+  uint64_t pool_runs_ = 0;
 };
 
 }  // namespace spikems
