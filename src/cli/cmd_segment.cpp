@@ -352,8 +352,8 @@ void add(CLI::App& app) {
   cmd->add_option("--block-steps", a.block_steps,
                   "Steps the network takes layer by layer in one go: faster (each layer's state "
                   "stays in the cache; 16 steps: ~1.2x at 1 M ev/s), but outputs come up to N-1 "
-                  "steps later (with --threads, the layers form a pipeline over blocks: layers-1 "
-                  "blocks more). Default 16 for files, 1 (lowest latency) for stdin")
+                  "steps later (with --threads, the layers form a pipeline over blocks: as many "
+                  "blocks more as layers). Default 16 for files, 1 (lowest latency) for stdin")
       ->check(CLI::Range(1, 4096));
   cmd->add_flag("--iir", a.iir,
                 "Run FIR layers with the exact recursions of the same neurons (no kernel "

@@ -47,8 +47,9 @@ void Segmenter::end_step() {
   // The input in neuron order (a bitmap, not the events' order): the first layer's scatter
   // then walks its state forward instead of jumping around the sensor.
   // Only the words marked in input_words_ are read (a few hundred of thousands, at 1 M ev/s).
-  if (inputs_.size() <= queued_) inputs_.resize(queued_ + 1);
-  std::vector<uint32_t>& input = inputs_[queued_];
+  std::vector<std::vector<uint32_t>>& set = inputs_[set_];
+  if (set.size() <= queued_) set.resize(queued_ + 1);
+  std::vector<uint32_t>& input = set[queued_];
   input.clear();
   if (input_count_ > 0)
     for (size_t s = 0; s < input_words_.size(); ++s) {
@@ -69,7 +70,19 @@ void Segmenter::end_step() {
 
 void Segmenter::run_block() {
   const auto t0 = std::chrono::steady_clock::now();
-  const size_t ready = net_.step_block(inputs_.data(), queued_);
+  size_t ready;
+  if (net_.block_running() || net_.pipelined(queued_)) {
+    // With threads: the block started last time finishes (this thread takes its share of
+    // the layers), this one starts, and the binning of the next block and the labels of the
+    // finished one run beside it.
+    ready = net_.finish_block();
+    if (queued_ > 0 || net_.in_flight()) {
+      net_.start_block(inputs_[set_].data(), queued_);
+      set_ ^= 1;
+    }
+  } else {
+    ready = net_.step_block(inputs_[set_].data(), queued_);
+  }
   queued_ = 0;
   net_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   deliver(ready);
@@ -155,12 +168,7 @@ void Segmenter::finish() {
   const int64_t end = cur_step_ + labeller_.window_steps();
   while (cur_step_ <= end) end_step();
   run_block();
-  while (net_.in_flight()) {  // the pipeline's last blocks (threads)
-    const auto t0 = std::chrono::steady_clock::now();
-    const size_t ready = net_.step_block(nullptr, 0);
-    net_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    deliver(ready);
-  }
+  while (net_.block_running()) run_block();  // the pipeline's last blocks (threads)
   if (masks_) masks_->flush(frames_);
 }
 

@@ -29,7 +29,7 @@ struct SegmenterOptions {
   int threads = 1;                // threads inside the network (StreamingNetwork::set_threads)
   // Steps the network takes layer by layer in one go (StreamingNetwork::step_block): faster
   // (each layer's state stays in the cache), but a step's output comes up to block_steps - 1
-  // steps later (with threads, layers - 1 blocks more: the layers then work on different
+  // steps later (with threads, as many blocks more as layers: the layers then work on different
   // blocks at once). 1 for the lowest latency (live streams).
   int block_steps = 1;
 };
@@ -73,9 +73,12 @@ class Segmenter {
   bool started_ = false, finished_ = false;
   int64_t origin_ = 0, last_t_ = 0, cur_step_ = 0;
   uint64_t events_in_ = 0;
-  std::vector<std::vector<uint32_t>> inputs_;  // the queued steps' input spikes, ascending
-  size_t queued_ = 0;                          // steps queued in inputs_
-  int64_t out_step_ = 0;                       // the next step whose output comes
+  // The queued steps' input spikes, ascending, in one of two sets: with threads, the network
+  // runs the other set's block meanwhile (StreamingNetwork::start_block).
+  std::vector<std::vector<uint32_t>> inputs_[2];
+  int set_ = 0;
+  size_t queued_ = 0;     // steps queued in inputs_[set_]
+  int64_t out_step_ = 0;  // the next step whose output comes
   // Mask frames: the events (pixel index) of the steps whose output has not come yet, and how
   // many each step has (the current step's are counted in step_events_).
   std::deque<uint32_t> mask_events_;

@@ -90,7 +90,7 @@ void TaskPool::work() {
   for (int i = next_.fetch_add(1); i < ntasks_; i = next_.fetch_add(1)) (*task_)(i);
 }
 
-void TaskPool::run(int n, const std::function<void(int)>& task) {
+void TaskPool::start(int n, const std::function<void(int)>& task) {
   task_ = &task;
   ntasks_ = n;
   next_ = 0;
@@ -102,6 +102,9 @@ void TaskPool::run(int n, const std::function<void(int)>& task) {
     generation_.fetch_add(1, std::memory_order_release);
   }
   start_cv_.notify_all();
+}
+
+void TaskPool::wait() {
   work();
   for (int s = 0; s < spins_ && remaining_.load(std::memory_order_acquire) != 0; ++s) cpu_relax();
   if (remaining_.load(std::memory_order_acquire) != 0) {
@@ -118,7 +121,7 @@ void StreamingNetwork::set_threads(int n) {
     pool_ = std::make_unique<TaskPool>(n);
 }
 
-void StreamingNetwork::run_in_pool(const std::function<void(int)>& run_layer) {
+void StreamingNetwork::sort_layers() {
   // Longest layers first (by their time so far), so that the last task claimed is a short
   // one; sorted again after 1, 2, 4, ... runs, then every 1024.
   const int L = int(layers_.size());
@@ -129,7 +132,6 @@ void StreamingNetwork::run_in_pool(const std::function<void(int)>& run_layer) {
                      [&](int a, int b) { return seconds_[size_t(a)] > seconds_[size_t(b)]; });
   }
   ++pool_runs_;
-  pool_->run(L, [&](int i) { run_layer(order_[size_t(i)]); });
 }
 
 const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>& input) {
@@ -143,9 +145,10 @@ const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>&
     seconds_[size_t(k)] +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
-  if (pool_)
-    run_in_pool(run);
-  else
+  if (pool_) {
+    sort_layers();
+    pool_->run(L, [&](int i) { run(order_[size_t(i)]); });
+  } else
     for (int k = 0; k < L; ++k) run(k);
   for (int k = 0; k < L; ++k)
     in_spikes_[size_t(k)] += (k == 0 ? input : now_[size_t(k - 1)]).size();
@@ -174,14 +177,9 @@ void StreamingNetwork::run_layer_block(size_t k, int64_t t0, const std::vector<u
 
 size_t StreamingNetwork::step_block(const std::vector<uint32_t>* inputs, size_t n) {
   const size_t L = layers_.size();
-  if (pool_ && (n > 1 || in_flight())) {
-    pipeline_round(inputs, n);
-    // The block the output layer just ran, if any (round r: block r - (L-1)).
-    const size_t par = size_t((round_ - 1 - int64_t(L - 1)) & 1);
-    const size_t ready = pipe_steps_[L - 1][par];
-    ready_ = &pipe_[L - 1][par];
-    t_ += int64_t(ready);
-    return ready;
+  if (pipelined(n)) {
+    start_block(inputs, n);
+    return finish_block();
   }
   block_.resize(L);
   if (pool_) {  // one step, layers in parallel
@@ -198,7 +196,8 @@ size_t StreamingNetwork::step_block(const std::vector<uint32_t>* inputs, size_t 
   return n;
 }
 
-void StreamingNetwork::pipeline_round(const std::vector<uint32_t>* inputs, size_t n) {
+void StreamingNetwork::start_block(const std::vector<uint32_t>* inputs, size_t n) {
+  if (!pool_ || running_) fail("streaming network", "", "start_block() without threads or twice");
   const int L = int(layers_.size());
   if (pipe_.size() != size_t(L)) {
     pipe_.resize(size_t(L));
@@ -212,18 +211,37 @@ void StreamingNetwork::pipeline_round(const std::vector<uint32_t>* inputs, size_
       pipe_steps_[size_t(k)] = {0, 0};
     }
   }
-  const int64_t r = round_;
-  auto run = [&](int k) {
-    const size_t par = size_t((r - k) & 1);
-    const size_t nb = k == 0 ? n : pipe_steps_[size_t(k - 1)][par];
-    const std::vector<uint32_t>* in = k == 0 ? inputs : pipe_[size_t(k - 1)][par].data();
-    run_layer_block(size_t(k), layer_t_[size_t(k)], in, nb, pipe_[size_t(k)][par]);
-    pipe_steps_[size_t(k)][par] = nb;
-    layer_t_[size_t(k)] += int64_t(nb);
-  };
-  run_in_pool(run);
+  round_in_ = inputs;
+  round_n_ = n;
+  if (!round_task_)
+    round_task_ = [this](int i) {
+      // Round r: layer k runs block r - k, on what layer k-1 made of it in round r - 1.
+      const int k = order_[size_t(i)];
+      const size_t par = size_t((round_ - k) & 1);
+      const size_t nb = k == 0 ? round_n_ : pipe_steps_[size_t(k - 1)][par];
+      const std::vector<uint32_t>* in = k == 0 ? round_in_ : pipe_[size_t(k - 1)][par].data();
+      run_layer_block(size_t(k), layer_t_[size_t(k)], in, nb, pipe_[size_t(k)][par]);
+      pipe_steps_[size_t(k)][par] = nb;
+      layer_t_[size_t(k)] += int64_t(nb);
+    };
+  sort_layers();
   taken_ += int64_t(n);
+  running_ = true;
+  pool_->start(L, round_task_);
+}
+
+size_t StreamingNetwork::finish_block() {
+  if (!running_) return 0;
+  pool_->wait();
+  running_ = false;
+  const size_t L = layers_.size();
+  // The block the output layer just ran (round r: block r - (L-1)); none while filling.
+  const size_t par = size_t((round_ - int64_t(L - 1)) & 1);
   ++round_;
+  const size_t ready = pipe_steps_[L - 1][par];
+  ready_ = &pipe_[L - 1][par];
+  t_ += int64_t(ready);
+  return ready;
 }
 
 std::vector<LayerStats> StreamingNetwork::stats() const {

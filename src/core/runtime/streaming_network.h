@@ -37,7 +37,14 @@ class TaskPool {
  public:
   explicit TaskPool(int threads);
   ~TaskPool();
-  void run(int n, const std::function<void(int)>& task);
+  void run(int n, const std::function<void(int)>& task) {
+    start(n, task);
+    wait();
+  }
+  // run() in two halves: start() sets the workers going and returns (task must live until
+  // wait()); wait() has the caller claim what is left, then waits for every task to finish.
+  void start(int n, const std::function<void(int)>& task);
+  void wait();
   int threads() const { return int(workers_.size()) + 1; }
 
  private:
@@ -75,6 +82,15 @@ class StreamingNetwork {
   // n = 0 while in_flight() to get the rest. A block of one step with nothing in flight is a
   // step() (layers in parallel within the step, no delay).
   size_t step_block(const std::vector<uint32_t>* inputs, size_t n);
+  // The pipeline's step_block() in two halves, so that the caller can bin the next block and
+  // label the last one while the other threads run the layers: start_block() returns at once
+  // (inputs must stay untouched until finish_block()), finish_block() takes its share of the
+  // layers, waits, and returns what step_block() would. For a network with threads; the
+  // outputs of the previous finish_block() stay valid until the next one.
+  bool pipelined(size_t n) const { return pool_ && (n > 1 || in_flight()); }
+  void start_block(const std::vector<uint32_t>* inputs, size_t n);
+  size_t finish_block();
+  bool block_running() const { return running_; }
   const std::vector<uint32_t>& block_output(size_t j) const { return (*ready_)[j]; }
   // Steps taken in whose outputs have not been returned yet (step() needs none).
   bool in_flight() const { return taken_ > t_; }
@@ -109,8 +125,12 @@ class StreamingNetwork {
   // step t0+j (out[0]: those computed before, now_[k]); now_[k] then holds those of t0+n.
   void run_layer_block(size_t k, int64_t t0, const std::vector<uint32_t>* in, size_t n,
                        std::vector<std::vector<uint32_t>>& out);
-  void pipeline_round(const std::vector<uint32_t>* inputs, size_t n);
-  void run_in_pool(const std::function<void(int)>& run_layer);  // every layer once, on the pool
+  // The layer tasks of the running round and its input.
+  std::function<void(int)> round_task_;
+  const std::vector<uint32_t>* round_in_ = nullptr;
+  size_t round_n_ = 0;
+  bool running_ = false;
+  void sort_layers();  // order_: longest first
   // step_block() on one thread: per layer, the spikes it emits at each step of the block.
   std::vector<std::vector<std::vector<uint32_t>>> block_;
   // The pipeline (threads): per layer, the same for its blocks of even and odd rounds, their

@@ -335,12 +335,16 @@ TEST(StreamingNetwork, BlocksGiveIdenticalResults) {
           want.push_back(a.step(inputs.back()));
         }
         const size_t ready = b.step_block(inputs.data(), size_t(n));
-        if (threads == 1) EXPECT_EQ(ready, size_t(n));
+        if (threads == 1) {
+          EXPECT_EQ(ready, size_t(n));
+        }
         lagged += size_t(n) - ready;
         take(ready);
         if (!b.in_flight()) same_layers();
       }
-      if (threads > 1) EXPECT_GT(lagged, 10u);  // the pipeline did delay outputs
+      if (threads > 1) {
+        EXPECT_GT(lagged, 10u);  // the pipeline did delay outputs
+      }
       while (b.in_flight()) take(b.step_block(nullptr, 0));
       ASSERT_EQ(t, in.T);
       same_layers();
