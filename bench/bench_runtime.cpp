@@ -248,6 +248,16 @@ BENCHMARK(BM_StreamingSegmentSparseIirBlocked)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
+// The FIR model (the authors' sampled kernels) in blocks.
+void BM_StreamingSegmentSparseBlocked(benchmark::State& state) {
+  static ModelSpec model = bench_model(1);
+  run_segment(state, model, 200000, 1, int(state.range(1)));
+}
+BENCHMARK(BM_StreamingSegmentSparseBlocked)
+    ->ArgsProduct({{1, 10}, {1, 16}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
 // The same on all threads: the layers form a pipeline over blocks (1 = layers in parallel
 // within each step, as BM_StreamingSegmentSparseIirAllThreads). 1 s of events: the pipeline
 // fills and drains over layers - 1 blocks at each end, which 200 ms would overweight.
