@@ -303,10 +303,10 @@ struct LayerInputs {
   std::vector<std::pair<int, int>> in_size;               // [layer] (height, width)
   ModelSpec model;
 };
-const LayerInputs& layer_inputs() {
-  static LayerInputs r = [] {
-    LayerInputs li;
-    li.model = bench_model(1, Discretisation::IIR);
+LayerInputs record_layer_inputs(Discretisation disc) {
+  LayerInputs li;
+  li.model = bench_model(1, disc);
+  {
     StreamingNetwork net(li.model, kH, kW);
     const size_t nl = net.layer_count();
     li.steps.resize(nl);
@@ -324,12 +324,10 @@ const LayerInputs& layer_inputs() {
       net.step(in);
       for (size_t k = 1; k < nl; ++k) li.steps[k].push_back(net.layer_spikes(k - 1));
     }
-    return li;
-  }();
-  return r;
+  }
+  return li;
 }
-void BM_LayerReplay(benchmark::State& state) {
-  const LayerInputs& li = layer_inputs();
+void replay_layer(benchmark::State& state, const LayerInputs& li) {
   const size_t k = size_t(state.range(0)) - 1;
   const auto& steps = li.steps[k];
   std::vector<uint32_t> out;
@@ -350,7 +348,17 @@ void BM_LayerReplay(benchmark::State& state) {
       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
   state.counters["visits_per_step"] = double(visits) / double(steps.size());
 }
+void BM_LayerReplay(benchmark::State& state) {
+  static const LayerInputs li = record_layer_inputs(Discretisation::IIR);
+  replay_layer(state, li);
+}
 BENCHMARK(BM_LayerReplay)->DenseRange(1, 6)->Unit(benchmark::kMillisecond)->UseRealTime();
+// The same for the FIR model (its layers run as the IIR recursions with expiry).
+void BM_LayerReplayFir(benchmark::State& state) {
+  static const LayerInputs li = record_layer_inputs(Discretisation::FIR);
+  replay_layer(state, li);
+}
+BENCHMARK(BM_LayerReplayFir)->DenseRange(1, 6)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Baseline: the dense reference forward (every neuron, every step) on 10 steps of the 1 M ev/s
 // stream.

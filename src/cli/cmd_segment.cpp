@@ -357,7 +357,7 @@ void add(CLI::App& app) {
       ->check(CLI::Range(1, 4096));
   cmd->add_flag("--iir", a.iir,
                 "Run FIR layers with the exact recursions of the same neurons (no kernel "
-                "truncation): 5-10x faster (docs/performance.md), spikes close to but not "
+                "truncation): ~1.5x faster (docs/performance.md), spikes close to but not "
                 "identical with the FIR model");
   cmd->add_option("--time-step-us", a.step_us, "Simulation step (default: the model's)")
       ->check(CLI::Range(int64_t(1), int64_t(1000000)));

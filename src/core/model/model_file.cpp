@@ -109,19 +109,23 @@ void fill_fir_kernels(ModelSpec& spec) {
   }
 }
 
+bool has_sampled_kernels(const LayerSpec& l, double ts) {
+  auto same = [](const std::vector<float>& a, const std::vector<float>& b) {
+    if (a.size() != b.size()) return false;
+    for (size_t i = 0; i < a.size(); ++i)
+      if (std::fabs(double(a[i]) - double(b[i])) > 1e-6 * std::max(1.0, std::fabs(double(b[i]))))
+        return false;
+    return true;
+  };
+  return same(l.srm_kernel, sample_srm_kernel(l.neuron.tau_s, ts)) &&
+         same(l.ref_kernel, sample_refractory_kernel(l.neuron, ts));
+}
+
 ModelSpec with_iir_neurons(ModelSpec spec, const std::string& source) {
   for (size_t k = 0; k < spec.layers.size(); ++k) {
     LayerSpec& l = spec.layers[k];
     if (l.neuron.discretisation != Discretisation::FIR) continue;
-    auto same = [](const std::vector<float>& a, const std::vector<float>& b) {
-      if (a.size() != b.size()) return false;
-      for (size_t i = 0; i < a.size(); ++i)
-        if (std::fabs(double(a[i]) - double(b[i])) > 1e-6 * std::max(1.0, std::fabs(double(b[i]))))
-          return false;
-      return true;
-    };
-    if (!same(l.srm_kernel, sample_srm_kernel(l.neuron.tau_s, spec.time_step_ms)) ||
-        !same(l.ref_kernel, sample_refractory_kernel(l.neuron, spec.time_step_ms)))
+    if (!has_sampled_kernels(l, spec.time_step_ms))
       fail(source, "layer " + std::to_string(k),
            "its FIR kernels are not the sampled kernels of its neuron parameters, so they have "
            "no exact IIR form; run the model as it is (without the IIR option)");

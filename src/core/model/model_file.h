@@ -82,6 +82,9 @@ void fill_fir_kernels(ModelSpec& spec);
 // recursions of those kernels, i.e. the same neuron without the kernels' truncation (the
 // streaming runtime's fast path). Throws Error naming the layer when its kernels differ.
 ModelSpec with_iir_neurons(ModelSpec spec, const std::string& source);
+// Whether a FIR layer's kernels are the sampled kernels of its neuron parameters (to 1e-6
+// relative), i.e. the truncations of the exact IIR recursions.
+bool has_sampled_kernels(const LayerSpec& l, double time_step_ms);
 
 // The SpikeMS network of the paper (BRIEF.md section 3), weights zero-filled.
 // padded=false: the authors' geometry (padding 0, output one pixel smaller per 8);

@@ -1,4 +1,6 @@
-// FIR neurons (the sampled kernels of the model file, eps[0..K), nu[0..R)), event-driven.
+// FIR neurons (the kernels of the model file, eps[0..K), nu[0..R)), event-driven, for the
+// layers IirStreamingLayer cannot run with expiry (kernels that are not the sampled ones,
+// SLAYER's refractory form, other channel counts): see StreamingLayer::create().
 //
 // Per position, a ring of the FUTURE potential (W >= max(K, R) slots of C floats): a drive at
 // t adds I*eps[k] to slot t+k, a spike adds nu[j] to slot t+j. The potential of a step is

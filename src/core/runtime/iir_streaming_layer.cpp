@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <limits>
 
+#include "core/util/error.h"
+
 #if defined(__SSE__)
 #include <immintrin.h>
 #endif
@@ -77,6 +79,30 @@ IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int
   // A float per neuron, + the spare floats of whole blocks past a run.
   drive_.assign(n + 16 * size_t(std::max(unit_blocks_, 1)) + 64);
   zero_drive_.assign(2 * size_t(lanes_));  // zeros to read, then a block to write to
+  if (l.neuron.discretisation == Discretisation::FIR) {
+    if (!runs_fir(l, ts)) fail("runtime", "", "internal: this FIR layer needs the ring form");
+    fir_k_ = int(l.srm_kernel.size());
+    fir_r_ = int(l.ref_kernel.size());
+    // In the scaled units of the state (see the top): the drive is cs*I, r0 is cref*r.
+    expire_b0_ = float(std::pow(a_, double(fir_k_)));
+    expire_a1_ = float(double(fir_k_) * std::pow(a_, double(fir_k_)));
+    expire_ref_ = float(cref_ * std::pow(ar_, double(fir_r_ - 1)));
+    drive_log_.resize(size_t(fir_k_));
+    for (DriveLog& g : drive_log_) {  // empty: a sentinel unit only
+      g.units.assign(1, ~uint32_t(0));
+      g.drive.assign(size_t(lanes_), 0.f);
+    }
+    spike_log_.resize(size_t(fir_r_) + 1);
+    expire_bits_.assign(active_bits_.size(), 0);
+  }
+}
+
+bool IirStreamingLayer::runs_fir(const LayerSpec& l, double ts) {
+  const int C = l.out_channels;
+  const bool whole_vectors = C == 16 || C == 32 || C == 64 || (C == 2 && l.kernel * C <= 16);
+  return l.neuron.discretisation == Discretisation::FIR &&
+         l.neuron.refractory == RefractoryShape::SpikeMS && whole_vectors &&
+         l.srm_kernel.size() >= 2 && !l.ref_kernel.empty() && has_sampled_kernels(l, ts);
 }
 
 void IirStreamingLayer::record_potentials(bool on) {
@@ -113,18 +139,18 @@ void IirStreamingLayer::step(int64_t t, const uint32_t* s, size_t n, std::vector
 SPIKEMS_TARGET_AVX512 void IirStreamingLayer::step_avx512(int64_t t, const uint32_t* s, size_t n,
                                                           std::vector<uint32_t>& next) {
   with_channels(cout_, [&](auto ct) SPIKEMS_INLINE_LAMBDA {
-    step_c<ct(), simd::Isa::Avx512>(t, s, n, next);
+    step_ct<ct(), simd::Isa::Avx512>(t, s, n, next);
   });
 }
 SPIKEMS_TARGET_AVX2 void IirStreamingLayer::step_avx2(int64_t t, const uint32_t* s, size_t n,
                                                       std::vector<uint32_t>& next) {
   with_channels(
-      cout_, [&](auto ct) SPIKEMS_INLINE_LAMBDA { step_c<ct(), simd::Isa::Avx2>(t, s, n, next); });
+      cout_, [&](auto ct) SPIKEMS_INLINE_LAMBDA { step_ct<ct(), simd::Isa::Avx2>(t, s, n, next); });
 }
 void IirStreamingLayer::step_default(int64_t t, const uint32_t* s, size_t n,
                                      std::vector<uint32_t>& next) {
   with_channels(cout_, [&](auto ct) SPIKEMS_INLINE_LAMBDA {
-    step_c<ct(), simd::Isa::Default>(t, s, n, next);
+    step_ct<ct(), simd::Isa::Default>(t, s, n, next);
   });
 }
 
@@ -218,10 +244,11 @@ SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t, uint32_t
 // One unit of the fused pass when a unit is a whole number of 16-lane blocks (L known at
 // compile time): catch-up, this step's drive and the step to t+1, the same arithmetic as
 // catch_up() and update() with each block kept in registers from its load to its store.
-template <int L, simd::Isa I>
+template <int L, simd::Isa I, bool kFir, bool kRef>
 SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, const float* drive,
                                                     float* sink, const PassConsts& k,
-                                                    uint32_t*& out) {
+                                                    uint32_t*& out, const float* expire,
+                                                    uint64_t ref_lanes) {
   using simd::F16;
   const size_t o = unit * size_t(L);
   float* const rec = k.state + unit * k.record_floats;
@@ -251,8 +278,21 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
     } else {
       rv = GR * r0;
     }
+    F16 x = G * (a1 + fd1 * b0) + gd, y = G * b0 + gd;
+    if constexpr (kFir) {
+      // The drive of K steps before leaves the psp, the spikes of R steps before the
+      // refractory response (SpikeMS form: rv is r0).
+      const F16 e = simd::load(expire + c0);
+      x -= k.xa1 * e;
+      y -= k.xb0 * e;
+      if constexpr (kRef) {
+        // Lane c takes bit c of the block's mask (broadcast through a float splat, see splat<I>).
+        const simd::I16 bits =
+            simd::I16(simd::splat<I>(std::bit_cast<float>(uint32_t(ref_lanes >> c0))));
+        rv -= simd::F16(((bits & k.lane_bit) != 0) & simd::I16(k.xref));
+      }
+    }
     const F16 r0n = k.slayer ? GR * r0 : rv;
-    const F16 x = G * (a1 + fd1 * b0) + gd, y = G * b0 + gd;
     a1m = x;
     b0m = y;
     const F16 uv = x + rv;
@@ -271,10 +311,24 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
 }
 
 template <int CT, simd::Isa I>
+SPIKEMS_INLINE void IirStreamingLayer::step_ct(int64_t t, const uint32_t* spikes, size_t n,
+                                               std::vector<uint32_t>& next) {
+  constexpr int LT = CT == 0 ? 0 : (CT < 16 && 16 % CT == 0 ? 16 : CT);
+  if constexpr (LT != 0 && LT % 16 == 0 && LT <= 64) {
+    if (fir_k_ > 0) {
+      step_c<CT, I, true>(t, spikes, n, next);
+      return;
+    }
+  }
+  step_c<CT, I, false>(t, spikes, n, next);
+}
+
+template <int CT, simd::Isa I, bool kFir>
 SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes, size_t n,
                                               std::vector<uint32_t>& next) {
   constexpr int LT = CT == 0 ? 0 : (CT < 16 && 16 % CT == 0 ? 16 : CT);
   constexpr bool kVector = LT != 0 && LT % 16 == 0;
+  static_assert(!kFir || (kVector && LT <= 64), "FIR expiry needs whole vectors, <= 64 lanes");
   const size_t L = size_t(LT ? LT : lanes_);
   const size_t words = active_bits_.size();
   uint64_t* __restrict tb = touched_bits_.data();
@@ -318,12 +372,42 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
     const float* rec = record_of(unit, L);
     for (size_t j = 0; j < size_t(nvars_) * L; j += 16) __builtin_prefetch(rec + j, 1);
   };
+  // FIR: the units whose drive of K-1 steps before, or spikes of R steps before, expire at
+  // t+1 are visited too (expire_bits_), whether reached or active or not.
+  uint64_t* __restrict xb = expire_bits_.data();
+  const DriveLog* xlog = nullptr;
+  DriveLog* wlog = nullptr;
+  if constexpr (kFir) {
+    const auto slot = [&](int m) { return size_t(((t % m) + m) % m); };
+    xlog = &drive_log_[slot(fir_k_) == size_t(fir_k_ - 1) ? 0 : slot(fir_k_) + 1];  // t-K+1
+    wlog = &drive_log_[slot(fir_k_)];
+    for (size_t i = 0; i < xlog->n; ++i)
+      xb[xlog->units[i] >> 6] |= uint64_t(1) << (xlog->units[i] & 63);
+    // The spikes of R steps before as (unit, lanes) pairs in unit order, and a sentinel.
+    ref_units_.clear();
+    ref_lanes_.clear();
+    for (uint32_t nrn : spike_log_[(slot(fir_r_ + 1) + 1) % size_t(fir_r_ + 1)]) {  // t-R
+      const uint32_t u = nrn / uint32_t(L);
+      if (ref_units_.empty() || ref_units_.back() != u) {
+        ref_units_.push_back(u);
+        ref_lanes_.push_back(0);
+        xb[u >> 6] |= uint64_t(1) << (u & 63);
+      }
+      ref_lanes_.back() |= uint64_t(1) << (nrn % uint32_t(L));
+    }
+    ref_units_.push_back(~uint32_t(0));
+    ref_lanes_.push_back(0);
+  }
+  auto marks = [&](size_t w) SPIKEMS_INLINE_LAMBDA {
+    if constexpr (kFir) return tb[w] | ab[w] | xb[w];
+    return tb[w] | ab[w];
+  };
   size_t ahead_word = 0;
-  uint64_t ahead_bits = words ? tb[0] | ab[0] : 0;
+  uint64_t ahead_bits = words ? marks(0) : 0;
   auto fetch_next = [&]() SPIKEMS_INLINE_LAMBDA {
     while (ahead_bits == 0) {
       if (++ahead_word >= words) return;
-      ahead_bits = tb[ahead_word] | ab[ahead_word];
+      ahead_bits = marks(ahead_word);
     }
     fetch(ahead_word * 64 + size_t(std::countr_zero(ahead_bits)));
     ahead_bits &= ahead_bits - 1;
@@ -347,13 +431,45 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
   k.pow_ar = pow_ar_.data();
   k.n_a = int64_t(pow_a_.size());
   k.n_ar = int64_t(pow_ar_.size());
+  if constexpr (kFir) {
+    k.xa1 = simd::splat<I>(expire_a1_);
+    k.xb0 = simd::splat<I>(expire_b0_);
+    k.xref = simd::splat<I>(expire_ref_);
+    k.lane_bit =
+        simd::I16{1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192, 16384, 32768};
+    // Room for every unit the drive reached, the last visit's discarded entry and a sentinel
+    // (grown, never shrunk: no per-unit growth checks).
+    size_t reached = 2;
+    for (size_t w = 0; w < words; ++w) reached += size_t(std::popcount(tb[w]));
+    if (wlog->units.size() < reached) {
+      wlog->units.resize(reached + reached / 2);
+      wlog->drive.resize(wlog->units.size() * L);
+    }
+  }
+  // Cursors in the expiring drive log and the spikes' units (both in unit order, each ending in
+  // a sentinel unit), and the log being written (every visit writes an entry, which only a
+  // unit the drive reached keeps: no branch).
+  const uint32_t* xu = nullptr;
+  const float* xd = nullptr;
+  const uint32_t* ru = ref_units_.data();
+  const uint64_t* rl = ref_lanes_.data();
+  uint32_t* wu = nullptr;
+  float* wd = nullptr;
+  size_t xi = 0, ri = 0, wn = 0;
+  if constexpr (kFir) {
+    xu = xlog->units.data();
+    xd = xlog->drive.data();
+    wu = wlog->units.data();
+    wd = wlog->drive.data();
+  }
   float* const zeros = zero_drive_.data();
   uint32_t* out = spike_buf_.data();
   size_t visited = 0;
   for (size_t w = 0; w < words; ++w) {
-    const uint64_t tw = tb[w], aw = ab[w], m = tw | aw;
+    const uint64_t tw = tb[w], aw = ab[w], m = marks(w);
     if (m == 0) continue;
     tb[w] = 0;
+    if constexpr (kFir) xb[w] = 0;
     visited += size_t(std::popcount(m));
     uint64_t keep = 0;
     for (uint64_t mm = m; mm != 0; mm &= mm - 1) {
@@ -361,7 +477,24 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
       const size_t unit = w * 64 + size_t(b);
       bool reach;
       fetch_next();
-      if constexpr (kVector) {
+      if constexpr (kFir) {
+        const size_t hit = size_t((tw >> b) & 1);
+        float* const slot = drive + unit * L;
+        // The drive, logged for its expiry K-1 passes on.
+        wu[wn] = uint32_t(unit);
+        for (int c0 = 0; c0 < LT; c0 += 16)
+          simd::store(wd + LT * wn + size_t(c0), simd::load(slot + c0));
+        wn += hit;
+        const size_t ex = xu[xi] == unit, rr = ru[ri] == unit;
+        const float* expire = ex ? xd + LT * xi : zeros;
+        const uint64_t ref_lanes = rr ? rl[ri] : 0;
+        xi += ex;
+        ri += rr;
+        float* const d = hit ? slot : zeros;
+        float* const sink = hit ? slot : zeros + LT;
+        reach = rr ? advance_unit<LT, I, true, true>(unit, t, d, sink, k, out, expire, ref_lanes)
+                   : advance_unit<LT, I, true, false>(unit, t, d, sink, k, out, expire);
+      } else if constexpr (kVector) {
         const size_t hit = size_t((tw >> b) & 1);
         float* const slot = drive + unit * L;
         reach = advance_unit<LT, I>(unit, t, hit ? slot : zeros, hit ? slot : zeros + LT, k, out);
@@ -386,6 +519,13 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
   visits_ += uint64_t(visited) << unit_shift_;
   const size_t nout = size_t(out - spike_buf_.data());
   next.insert(next.end(), spike_buf_.data(), out);
+  if constexpr (kFir) {  // the log's end: its count and a sentinel unit
+    wlog->n = wn;
+    wu[wn] = ~uint32_t(0);
+  }
+  if constexpr (kFir)  // the spikes of t+1, whose refractory response expires at t+1+R
+    spike_log_[size_t(((t % (fir_r_ + 1)) + fir_r_ + 1) % (fir_r_ + 1))].assign(spike_buf_.data(),
+                                                                                out);
   ahead_ = nout;
   spikes_ += ahead_;
 }

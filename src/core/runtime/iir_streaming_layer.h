@@ -21,6 +21,16 @@
 // cache misses overlap. Idle and decaying neurons cost nothing, and the spikes come out
 // sorted. The pass is compiled per instruction set (AVX-512, AVX2, baseline: compares into
 // bit masks, spikes written with a compress on AVX-512).
+//
+// FIR layers whose kernels are the sampled ones (the authors' model) run here too, as the same
+// recursions with *expiry*: the FIR kernels are the IIR ones cut after K (psp) and R
+// (refractory) taps, and a drive I entering at step j contributes exactly a^K I to b0 and
+// K a^K I to a1 at step j+K, a spike at s exactly cref ar^(R-1) to r0 at s+R. So each step's
+// drive is logged per reached unit, and K-1 passes later those units are visited again and the
+// two terms subtracted (likewise the spikes of R steps before): every expiry is applied at its
+// exact step, so the state always holds the FIR potential and the activity bound holds
+// between expiries. (A ring of K future potentials per neuron, fir_streaming_layer.h, costs
+// 5-10x more.)
 #pragma once
 
 #include <cmath>
@@ -32,7 +42,11 @@ namespace spikems {
 
 class IirStreamingLayer final : public StreamingLayer {
  public:
+  // An IIR layer, or a FIR layer that runs_fir() accepts.
   IirStreamingLayer(const LayerSpec& l, double time_step_ms, int hin, int win);
+  // Whether a FIR layer can run here (with expiry): kernels sampled from its neuron
+  // parameters, the SpikeMS refractory form, and 2, 16, 32 or 64 channels (whole vectors).
+  static bool runs_fir(const LayerSpec& l, double time_step_ms);
   void step(int64_t t, const uint32_t* spikes, size_t n, std::vector<uint32_t>& next) override;
   void record_potentials(bool on) override;
   float potential(int64_t t, uint32_t neuron) const override;
@@ -52,6 +66,8 @@ class IirStreamingLayer final : public StreamingLayer {
                                      std::vector<uint32_t>& next);
   void step_default(int64_t t, const uint32_t* spikes, size_t n, std::vector<uint32_t>& next);
   template <int CT, simd::Isa I>
+  void step_ct(int64_t t, const uint32_t* spikes, size_t n, std::vector<uint32_t>& next);
+  template <int CT, simd::Isa I, bool kFir>
   void step_c(int64_t t, const uint32_t* spikes, size_t n, std::vector<uint32_t>& next);
   template <int CT>
   void catch_up(uint32_t unit, int64_t t);
@@ -69,10 +85,14 @@ class IirStreamingLayer final : public StreamingLayer {
     size_t record_floats;         // nvars_ * lanes
     const float *pow_a, *pow_ar;  // decay tables and their lengths
     int64_t n_a, n_ar;
+    simd::F16 xa1, xb0, xref;  // FIR expiry: K a^K, a^K, cref ar^(R-1)
+    simd::I16 lane_bit;        // 1 << lane
   };
-  template <int L, simd::Isa I>
+  // With kFir, expire holds the drive of K-1 steps before (zeros if none); with kRef,
+  // ref_lanes has the lanes that spiked R steps before.
+  template <int L, simd::Isa I, bool kFir = false, bool kRef = false>
   bool advance_unit(size_t unit, int64_t t, const float* drive, float* sink, const PassConsts& k,
-                    uint32_t*& out);
+                    uint32_t*& out, const float* expire = nullptr, uint64_t ref_lanes = 0);
   // Keeps u[t] of lanes c0 .. c0+n of a unit (for potential()).
   void record(uint32_t unit, const float* u, int64_t t, int c0, int n);
   // a^d and ar^d: tables until they drop below the smallest normal float, 0 beyond (pow()
@@ -114,6 +134,21 @@ class IirStreamingLayer final : public StreamingLayer {
   bool record_ = false;
   std::vector<float> u_eval_;
   std::vector<int64_t> eval_step_;
+  // FIR expiry (fir_k_ > 0): per step, the units reached and the drive each took (K slots, by
+  // step mod K), the spikes each pass emitted (R + 1 slots), and the units with an expiry at
+  // the current step.
+  int fir_k_ = 0, fir_r_ = 0;
+  float expire_a1_ = 0, expire_b0_ = 0, expire_ref_ = 0;
+  struct DriveLog {
+    size_t n = 0;  // entries (the vectors only grow)
+    std::vector<uint32_t> units;
+    std::vector<float> drive;  // lanes_ floats per unit
+  };
+  std::vector<DriveLog> drive_log_;
+  std::vector<std::vector<uint32_t>> spike_log_;
+  std::vector<uint64_t> expire_bits_;
+  std::vector<uint32_t> ref_units_;  // a pass's units whose spikes of R steps before expire
+  std::vector<uint64_t> ref_lanes_;  // and their lanes
 };
 
 }  // namespace spikems

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <random>
 #include <string>
 #include <thread>
@@ -13,6 +14,7 @@
 
 #include "common/test_paths.h"
 #include "core/runtime/dense_reference.h"
+#include "core/runtime/fir_streaming_layer.h"
 #include "core/runtime/iir_streaming_layer.h"
 #include "core/runtime/segmenter.h"
 #include "core/runtime/streaming_network.h"
@@ -181,6 +183,85 @@ TEST(StreamingNetwork, FirStructuredInputMatchesDense) {
 TEST(StreamingNetwork, FirSlayerRefractoryMatchesDense) {
   ModelSpec m = random_model(true, Discretisation::FIR, RefractoryShape::Slayer, 5, 1.0f);
   check_model(m, make_input(40, 16, 24, false, 6), 1e-4);
+}
+
+// The two forms of a FIR layer: the sampled kernels with the SpikeMS refractory form run as
+// the IIR recursions with expiry (create() picks it), other kernels keep the ring of future
+// potentials. Both match the dense reference (above); here they are compared with each other
+// on every potential of every step (but a neuron's after a decision within 1e-5 of theta
+// went differently: its refractory response then differs), and create()'s choice is checked.
+TEST(StreamingNetwork, FirExpiryAndRingFormsAgree) {
+  ModelSpec m = random_model(true, Discretisation::FIR, RefractoryShape::SpikeMS, 41, 1.2f);
+  DenseTensor in = make_input(60, 24, 32, true, 42);
+  int h = in.H, w = in.W;
+  size_t total = 0;
+  for (size_t k = 0; k < m.layers.size(); ++k) {
+    SCOPED_TRACE("layer " + std::to_string(k));
+    auto fast = StreamingLayer::create(m.layers[k], m.time_step_ms, h, w);
+    ASSERT_NE(dynamic_cast<IirStreamingLayer*>(fast.get()), nullptr);
+    FirStreamingLayer ring(m.layers[k], h, w);
+    fast->record_potentials(true);
+    const float theta = m.layers[k].neuron.theta;
+    std::vector<uint32_t> a, b;
+    int mism = 0;
+    double max_du = 0;
+    std::vector<uint8_t> diverged(ring.out_neurons(), 0);
+    for (int t = 0; t < in.T; ++t) {
+      a.clear();
+      b.clear();
+      fast->fire(t, a);
+      ring.fire(t, b);
+      std::sort(a.begin(), a.end());
+      std::sort(b.begin(), b.end());
+      if (a != b) {
+        std::vector<uint32_t> diff;
+        std::set_symmetric_difference(a.begin(), a.end(), b.begin(), b.end(),
+                                      std::back_inserter(diff));
+        for (uint32_t n : diff) {
+          ++mism;
+          diverged[n] = 1;  // its refractory response differs from here on
+          EXPECT_LT(std::fabs(ring.potential(t, n) - theta), 1e-5f) << "step " << t;
+        }
+      }
+      for (uint32_t n = 0; n < uint32_t(ring.out_neurons()); ++n)
+        if (!diverged[n])
+          max_du =
+              std::max(max_du, double(std::fabs(fast->potential(t, n) - ring.potential(t, n))));
+      total += b.size();
+      auto s = spikes_at(in, t);
+      fast->drive(t, s.data(), s.size());
+      ring.drive(t, s.data(), s.size());
+    }
+    EXPECT_LE(mism, 3);
+    EXPECT_LT(max_du, 1e-4);
+    // The next layer's input: the ring's spikes, as a dense tensor.
+    DenseTensor next(in.T, ring.out_channels(), ring.out_height(), ring.out_width());
+    FirStreamingLayer ring2(m.layers[k], h, w);
+    for (int t = 0; t < in.T; ++t) {
+      b.clear();
+      ring2.fire(t, b);
+      for (uint32_t n : b) {
+        const int c = int(n % uint32_t(next.C)), pos = int(n / uint32_t(next.C));
+        next.at(t, c, pos / next.W, pos % next.W) = 1;
+      }
+      auto s = spikes_at(in, t);
+      ring2.drive(t, s.data(), s.size());
+    }
+    in = std::move(next);
+    h = in.H;
+    w = in.W;
+  }
+  EXPECT_GT(total, 100u);
+  // Kernels that are not the sampled ones, or SLAYER's refractory form: the ring.
+  ModelSpec odd = m;
+  odd.layers[0].srm_kernel[3] *= 1.01f;
+  EXPECT_NE(dynamic_cast<FirStreamingLayer*>(
+                StreamingLayer::create(odd.layers[0], m.time_step_ms, 24, 32).get()),
+            nullptr);
+  ModelSpec sl = random_model(true, Discretisation::FIR, RefractoryShape::Slayer, 41, 1.0f);
+  EXPECT_NE(dynamic_cast<FirStreamingLayer*>(
+                StreamingLayer::create(sl.layers[1], m.time_step_ms, 12, 16).get()),
+            nullptr);
 }
 
 TEST(StreamingNetwork, IirRandomInputMatchesDense) {
@@ -474,13 +555,22 @@ TEST(StreamingNetwork, IirInstructionSetsGiveIdenticalSpikes) {
     int ci, co;
   };
   int compared = 0;
-  for (auto ref : {RefractoryShape::SpikeMS, RefractoryShape::Slayer})
+  // IIR layers of both refractory forms, and FIR layers run with expiry (SpikeMS form).
+  for (auto [disc, ref] : {std::pair{Discretisation::IIR, RefractoryShape::SpikeMS},
+                           {Discretisation::IIR, RefractoryShape::Slayer},
+                           {Discretisation::FIR, RefractoryShape::SpikeMS}})
     for (const Row& r : {Row{LayerKind::Conv, 2, 16}, Row{LayerKind::Conv, 16, 32},
                          Row{LayerKind::Conv, 32, 64}, Row{LayerKind::ConvTranspose, 16, 2},
                          Row{LayerKind::Conv, 2, 8}, Row{LayerKind::ConvTranspose, 4, 5}}) {
-      LayerSpec l = make_layer(r.kind, r.ci, r.co, 3, 2, 1,
-                               r.kind == LayerKind::ConvTranspose ? 1 : 0, Discretisation::IIR);
+      if (disc == Discretisation::FIR && r.co != 16 && r.co != 32 && r.co != 64 && r.co != 2)
+        continue;  // the ring form: one version
+      LayerSpec l =
+          make_layer(r.kind, r.ci, r.co, 3, 2, 1, r.kind == LayerKind::ConvTranspose ? 1 : 0, disc);
       l.neuron.refractory = ref;
+      if (disc == Discretisation::FIR) {
+        l.srm_kernel = sample_srm_kernel(l.neuron.tau_s, 1.0);
+        l.ref_kernel = sample_refractory_kernel(l.neuron, 1.0);
+      }
       std::mt19937 rng(uint32_t(7 + r.co));
       std::normal_distribution<float> g(0.3f / float(r.ci), 1.2f / std::sqrt(float(r.ci) * 9));
       for (auto& w : l.weight) w = g(rng);
@@ -519,7 +609,8 @@ TEST(StreamingNetwork, IirInstructionSetsGiveIdenticalSpikes) {
 
 // Visits count the positions whose state a step reads and writes. One input spike into a
 // silent layer (zero weights): the positions it reaches are visited once, i.e. SynOps / C,
-// and none after; the output layer's IIR units of 8 positions count 8 positions each.
+// and none after (FIR: once more when the drive expires); the output layer's units of 8
+// positions count 8 positions each.
 TEST(StreamingNetwork, VisitsCountThePositionsReached) {
   for (auto disc : {Discretisation::FIR, Discretisation::IIR}) {
     ModelSpec m = spikems_architecture(true, disc);
@@ -532,14 +623,26 @@ TEST(StreamingNetwork, VisitsCountThePositionsReached) {
     for (int t = 1; t < 5; ++t) first->step(t, nullptr, 0, out);
     EXPECT_EQ(first->visits(), 4u) << "nothing is active: no further visits";
     EXPECT_TRUE(out.empty());
+    // FIR (sampled kernels, run with expiry): the drive leaves the K-tap kernel at step K,
+    // which visits the 4 positions once more (in the pass of step K-1); IIR: never again.
+    const int K = int(m.layers[0].srm_kernel.size());
+    if (disc == Discretisation::FIR) {
+      ASSERT_GE(K, 6);
+      for (int t = 5; t < K - 1; ++t) first->step(t, nullptr, 0, out);
+      EXPECT_EQ(first->visits(), 4u);
+      first->step(K - 1, nullptr, 0, out);
+      EXPECT_EQ(first->visits(), 8u) << "the expiry visit";
+    }
+    for (int t = std::max(5, K); t < K + 20; ++t) first->step(t, nullptr, 0, out);
+    EXPECT_EQ(first->visits(), disc == Discretisation::FIR ? 8u : 4u);
+    EXPECT_TRUE(out.empty());
 
     auto last = StreamingLayer::create(m.layers[5], m.time_step_ms, 8, 8);  // 16 -> 2, convT
     in = {uint32_t((3 * 8 + 3) * 16 + 4)};
     last->step(0, in.data(), in.size(), out);
     EXPECT_EQ(last->synops(), 18u);  // 3 x 3 outputs x 2 channels
-    // FIR: the 9 positions; IIR: units of 8 positions (columns 5-7 of a 16-wide output lie in
-    // one unit per row), 3 rows.
-    EXPECT_EQ(last->visits(), disc == Discretisation::FIR ? 9u : 24u);
+    // Units of 8 positions (columns 5-7 of a 16-wide output lie in one unit per row), 3 rows.
+    EXPECT_EQ(last->visits(), 24u);
   }
 }
 
