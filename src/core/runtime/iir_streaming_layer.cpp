@@ -378,15 +378,15 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
   const DriveLog* xlog = nullptr;
   DriveLog* wlog = nullptr;
   if constexpr (kFir) {
-    const auto slot = [&](int m) { return size_t(((t % m) + m) % m); };
-    xlog = &drive_log_[slot(fir_k_) == size_t(fir_k_ - 1) ? 0 : slot(fir_k_) + 1];  // t-K+1
-    wlog = &drive_log_[slot(fir_k_)];
+    const auto ring = [&](int m) { return size_t(((t % m) + m) % m); };             // t's slot of m
+    xlog = &drive_log_[ring(fir_k_) == size_t(fir_k_ - 1) ? 0 : ring(fir_k_) + 1];  // t-K+1
+    wlog = &drive_log_[ring(fir_k_)];
     for (size_t i = 0; i < xlog->n; ++i)
       xb[xlog->units[i] >> 6] |= uint64_t(1) << (xlog->units[i] & 63);
     // The spikes of R steps before as (unit, lanes) pairs in unit order, and a sentinel.
     ref_units_.clear();
     ref_lanes_.clear();
-    for (uint32_t nrn : spike_log_[(slot(fir_r_ + 1) + 1) % size_t(fir_r_ + 1)]) {  // t-R
+    for (uint32_t nrn : spike_log_[(ring(fir_r_ + 1) + 1) % size_t(fir_r_ + 1)]) {  // t-R
       const uint32_t u = nrn / uint32_t(L);
       if (ref_units_.empty() || ref_units_.back() != u) {
         ref_units_.push_back(u);
@@ -477,27 +477,27 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
       const size_t unit = w * 64 + size_t(b);
       bool reach;
       fetch_next();
-      if constexpr (kFir) {
+      if constexpr (kVector) {
         const size_t hit = size_t((tw >> b) & 1);
         float* const slot = drive + unit * L;
-        // The drive, logged for its expiry K-1 passes on.
-        wu[wn] = uint32_t(unit);
-        for (int c0 = 0; c0 < LT; c0 += 16)
-          simd::store(wd + LT * wn + size_t(c0), simd::load(slot + c0));
-        wn += hit;
-        const size_t ex = xu[xi] == unit, rr = ru[ri] == unit;
-        const float* expire = ex ? xd + LT * xi : zeros;
-        const uint64_t ref_lanes = rr ? rl[ri] : 0;
-        xi += ex;
-        ri += rr;
         float* const d = hit ? slot : zeros;
         float* const sink = hit ? slot : zeros + LT;
-        reach = rr ? advance_unit<LT, I, true, true>(unit, t, d, sink, k, out, expire, ref_lanes)
-                   : advance_unit<LT, I, true, false>(unit, t, d, sink, k, out, expire);
-      } else if constexpr (kVector) {
-        const size_t hit = size_t((tw >> b) & 1);
-        float* const slot = drive + unit * L;
-        reach = advance_unit<LT, I>(unit, t, hit ? slot : zeros, hit ? slot : zeros + LT, k, out);
+        if constexpr (kFir) {
+          // The drive, logged for its expiry K-1 passes on.
+          wu[wn] = uint32_t(unit);
+          for (int c0 = 0; c0 < LT; c0 += 16)
+            simd::store(wd + LT * wn + size_t(c0), simd::load(slot + c0));
+          wn += hit;
+          const size_t ex = xu[xi] == unit, rr = ru[ri] == unit;
+          const float* expire = ex ? xd + LT * xi : zeros;
+          const uint64_t ref_lanes = rr ? rl[ri] : 0;
+          xi += ex;
+          ri += rr;
+          reach = rr ? advance_unit<LT, I, true, true>(unit, t, d, sink, k, out, expire, ref_lanes)
+                     : advance_unit<LT, I, true, false>(unit, t, d, sink, k, out, expire);
+        } else {
+          reach = advance_unit<LT, I>(unit, t, d, sink, k, out);
+        }
       } else {
         if ((tw >> b) & 1) {
           catch_up<CT>(uint32_t(unit), t);
