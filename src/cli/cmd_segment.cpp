@@ -8,12 +8,12 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <map>
 #include <memory>
 #include <optional>
 
 #include "cli/command.h"
 #include "core/eval/metrics.h"
+#include "core/eval/window_scorer.h"
 #include "core/events/io.h"
 #include "core/model/model_file.h"
 #include "core/runtime/kalman_tracker.h"
@@ -220,35 +220,22 @@ void run(const Args& a) {
     seg.emplace(model, s, so, a.input);
     if (!a.out.empty()) sink.emplace(a.out, s);
   };
-  // --score: the paper's per-window IoU and detection rate. G = pixels with foreground input
-  // events (label != 0) in the window, P = pixels of the window's mask frame (output spikes).
-  // Truth frames are keyed by window index and dropped once scored (bounded memory).
-  std::map<int64_t, std::vector<uint8_t>> truth;
-  WindowScores scores;
-  int64_t origin = 0;
-  bool have_origin = false;
+  // --score: the paper's per-window IoU and detection rate (core/eval/window_scorer.h): G =
+  // pixels with foreground input events (label != 0) in the window, P = pixels of the window's
+  // mask frame (output spikes). Truth is dropped once scored (bounded memory).
+  std::optional<WindowScorer> scorer;
+  int64_t last_t = 0;
   auto add_truth = [&](const EventStream& c) {
     if (!a.score || c.empty()) return;
     if (!c.has_labels())
       fail(a.input, "",
            "--score needs labelled events (label = object id), e.g. from `spikems simulate`");
-    if (!have_origin) {
-      origin = c.t[0];
-      have_origin = true;
-    }
-    for (size_t i = 0; i < c.size(); ++i) {
-      auto& m = truth[(c.t[i] - origin) / window];
-      if (m.empty()) m.assign(size_t(sensor.width) * size_t(sensor.height), 0);
-      if (c.label[i] != 0) m[size_t(c.y[i]) * size_t(sensor.width) + c.x[i]] = 1;
-    }
+    if (!scorer) scorer.emplace(sensor, std::vector<int64_t>{window});
+    scorer->add_events(c);
+    last_t = c.t.back();
   };
   auto score_frame = [&](const PredictionFrame& f) {
-    if (!a.score) return;
-    int64_t k = (f.t0_us - origin) / window;
-    auto it = truth.find(k);
-    std::vector<uint8_t> empty(f.foreground.size(), 0);
-    scores.add(count_masks(f.foreground, it == truth.end() ? empty : it->second));
-    truth.erase(truth.begin(), truth.upper_bound(k));
+    if (scorer) scorer->add_frame(f);
   };
   size_t frames_written = 0;
   auto drain = [&]() {
@@ -310,6 +297,9 @@ void run(const Args& a) {
                  "spikems segment: interrupted; outputs hold the %" PRIu64 " events read so far\n",
                  seg->events_in());
   if (a.stats) print_stats(*seg, wall);
+  // The last window is scored even when the stream ends inside it.
+  if (scorer) scorer->finish(last_t + 1, /*keep_partial=*/true);
+  const WindowScores scores = scorer ? scorer->scores()[0] : WindowScores{};
   if (a.score)
     std::printf(
         "score over %zu windows of %g ms with moving objects (%zu without, skipped): "

@@ -67,11 +67,11 @@ void ProgressBar::draw(bool final) {
   bool tty = isatty(fileno(stderr));
   // On a terminal the line is redrawn in place; in logs only the final line is written.
   if (!tty && !final) return;
-  std::fprintf(stderr, "%s%s [%s] %5.1f%% %s/%s %s %s/s %s %s%s", tty ? "\r" : "", label_.c_str(),
-               bar.c_str(), frac * 100, human_count(double(done_)).c_str(),
+  std::fprintf(stderr, "%s%s [%s] %5.1f%% %s/%s %s %s/s %s %s%s%s%s", tty ? "\r" : "",
+               label_.c_str(), bar.c_str(), frac * 100, human_count(double(done_)).c_str(),
                human_count(double(total_)).c_str(), unit_.c_str(), human_count(rate).c_str(),
                final ? "in" : "ETA", human_duration(final ? el : eta).c_str(),
-               final ? "\n" : "   ");
+               status_.empty() ? "" : "  ", status_.c_str(), final ? "\n" : "   ");
   std::fflush(stderr);
 }
 

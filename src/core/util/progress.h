@@ -15,10 +15,12 @@ class ProgressBar {
   void update(uint64_t done);  // absolute progress
   void add(uint64_t n) { update(done_ + n); }
   void finish();
+  // Text shown after the rate and ETA (e.g. "loss 0.31 IoU 42 %"), redrawn with the bar.
+  void set_status(std::string s) { status_ = std::move(s); }
 
  private:
   void draw(bool final);
-  std::string label_, unit_;
+  std::string label_, unit_, status_;
   uint64_t total_, done_ = 0;
   bool enabled_, finished_ = false;
   std::chrono::steady_clock::time_point start_, last_draw_;

@@ -42,11 +42,18 @@ torch::Tensor bce_loss(const torch::Tensor& out, const torch::Tensor& input,
   if (o.projection == LossOptions::Projection::Sigmoid) {
     torch::Tensor z = o.alpha * (P - o.beta);
     // -[y log s(z) + (1-y) log(1-s(z))] = y softplus(-z) + (1-y) softplus(z)
-    l = fg * torch::softplus(-z) + (1 - fg) * torch::softplus(z);
+    l = o.pos_weight * fg * torch::softplus(-z) + (1 - fg) * torch::softplus(z);
   } else {
     torch::Tensor z = P / o.kappa;
     torch::Tensor logp = torch::log(torch::clamp_min(-torch::expm1(-z), o.floor));
-    l = -(fg * logp) + (1 - fg) * z;  // log(1 - p) = -P/kappa exactly
+    l = -(o.pos_weight * fg * logp) + (1 - fg) * z;  // log(1 - p) = -P/kappa exactly
+  }
+  if (o.all_pixels) had = torch::ones_like(had);
+  if (o.balanced) {
+    torch::Tensor bg = had * (1 - fg);
+    torch::Tensor lf = (l * fg).sum() / torch::clamp_min(fg.sum(), 1.0);
+    torch::Tensor lb = (l * bg).sum() / torch::clamp_min(bg.sum(), 1.0);
+    return 0.5 * (lf + lb);
   }
   torch::Tensor n = had.sum();
   return (l * had).sum() / torch::clamp_min(n, 1.0);

@@ -8,7 +8,9 @@
 //   Sigmoid:     p = sigmoid(alpha (P - beta))          (default alpha 2, beta 1)
 //   Exponential: p = 1 - exp(-P / kappa)                 (log p floored at log(floor))
 // label y(x) = 1 where the pixel had at least one foreground input event, 0 where its events
-// were all background; binary cross-entropy averaged over the pixels with input events.
+// were all background; binary cross-entropy averaged over the pixels with input events (the
+// paper), or over all pixels (`all_pixels`: a spike where no event fell is a false positive
+// of the IoU too), foreground terms weighted by `pos_weight`; or class-balanced (`balanced`).
 // L_spike (van Rossum): f = eps * out, g = eps * target, target = input * fg_mask, both with
 // the spike-response kernel eps (psp, scale Ts); L = (Ts / tau) * sum_{t,c,x} (f - g)^2 / (B H W)
 // (a sum over time and channels, a mean over samples and pixels). Channels are compared one to
@@ -27,6 +29,11 @@ struct LossOptions {
   double alpha = 2.0, beta = 1.0;    // Sigmoid
   double kappa = 1.0, floor = 1e-4;  // Exponential
   double lambda = 1.0;               // weight of L_spike
+  bool all_pixels = false;           // L_bce over every pixel, not only those with events
+  double pos_weight = 1.0;           // weight of the foreground terms of L_bce
+  // Class-balanced L_bce: the mean over foreground pixels plus the mean over background pixels
+  // (each half weighted 1/2), so rare moving objects weigh as much as the background.
+  bool balanced = false;
   double ts = 1.0;                   // time step (ms)
   double tau = 2.0;                  // van Rossum kernel time constant (ms)
   TemporalKernel kernel = TemporalKernel::alpha(2.0, 1.0, 1.0);  // eps for L_spike

@@ -1,20 +1,23 @@
 // EV-IMO (v1) ground truth, in its two published layouts:
 //   "evimo1"      one npz per sequence: events float32 (N,4) = [t s, x, y, p], index,
 //                 discretization, K (3x3), D, depth uint16 (F,H,W), mask uint16 (F,H,W) =
-//                 object id x 1000, meta (a pickled dict; never unpickled here).
+//                 object id x 1000, meta (a pickled dict, read with the restricted unpickler).
 //   "evimo1-txt"  a folder: events.txt ("t x y p", t in seconds), meta.txt (a Python literal
 //                 dict whose 'frames' list gives each frame's 'ts' and 'gt_frame'), and
 //                 img/depth_mask_<id>.png (16-bit, 3 channels; BGR channel 2 = id x 1000).
-// Mask frame times of the npz: the per-frame times live only in the pickled `meta`, so they
-// are taken from a meta.txt next to the npz (same folder, or a folder named like the npz
-// without its extension) when there is one; otherwise frames are assumed evenly spaced over
-// the events, frame i at t_first + (i + 0.5) * (t_last - t_first) / F, and the recording's
-// metadata says "mask_times": "uniform-estimate" (good enough for display, not for scoring).
+// Mask frame times of the npz live only in `meta`. They come from the first that works of:
+// `meta` unpickled by pickle.h, which accepts plain data only ("mask_times": "meta"); a meta.txt
+// next to the npz (same folder, or a folder named like the npz without its extension;
+// "meta.txt"); else frames evenly spaced over the events, frame i at
+// t_first + (i + 0.5) * (t_last - t_first) / F ("uniform-estimate": good enough for display, not
+// for scoring). When `meta` cannot be used, "meta_error" in the metadata says why: np.savez
+// pickles its numpy object-array wrapper, whose GLOBAL/REDUCE opcodes are refused.
 #include <cmath>
 #include <filesystem>
 
 #include "core/events/formats/evimo_common.h"
 #include "core/events/formats/memory_reader.h"
+#include "core/events/formats/pickle.h"
 #include "core/events/formats/png16.h"
 #include "core/events/formats/text.h"
 #include "core/util/byte_source.h"
@@ -67,6 +70,45 @@ std::string find_meta_txt(const std::string& npz_path) {
   return "";
 }
 
+// Frame times (us) from a meta dict's 'frames' list, which must describe all F mask frames.
+std::vector<int64_t> listed_times(const nlohmann::json& meta, const std::string& src, int64_t F) {
+  auto frames = evimo_frames_from_meta(meta, src);
+  if (int64_t(frames.size()) != F)
+    fail(src, "",
+         std::to_string(frames.size()) + " frames listed, the npz mask has " + std::to_string(F));
+  std::vector<int64_t> times;
+  for (const auto& f : frames) times.push_back(f.t_us);
+  return times;
+}
+
+// Mask frame times from `meta`, else meta.txt, else the uniform estimate (see the top of the
+// file); `info` gets "mask_times" and, when `meta` was there but unusable, "meta_error".
+std::vector<int64_t> mask_times(const std::string& path, bool has_meta, int64_t F,
+                                const EventStream& ev, nlohmann::json& info) {
+  if (has_meta) {
+    try {
+      auto times = listed_times(unpickle_npz_member(path, "meta"), path + ":meta", F);
+      info["mask_times"] = "meta";
+      return times;
+    } catch (const Error& e) {
+      info["meta_error"] = e.what();
+    }
+  }
+  std::string meta_txt = find_meta_txt(path);
+  if (!meta_txt.empty()) {
+    info["mask_times"] = "meta.txt";
+    return listed_times(parse_python_literal(read_text_file(meta_txt), meta_txt), meta_txt, F);
+  }
+  std::vector<int64_t> times;
+  for (int64_t i = 0; i < F; ++i)
+    times.push_back(ev.empty() ? 0
+                               : ev.t_first() +
+                                     int64_t(std::llround((double(i) + 0.5) *
+                                                          double(ev.duration_us()) / double(F))));
+  info["mask_times"] = "uniform-estimate";
+  return times;
+}
+
 std::unique_ptr<EventReader> open_evimo1_npz(const std::string& path, const ReadOptions& opt) {
   NpzFile z(path);
   if (!z.has("events")) fail(path, "", "EV-IMO npz without an 'events' array");
@@ -90,25 +132,7 @@ std::unique_ptr<EventReader> open_evimo1_npz(const std::string& path, const Read
     mh = int(m.shape[1]);
     mw = int(m.shape[2]);
     auto ids = m.to<uint16_t>();
-    std::vector<int64_t> times;
-    std::string meta_txt = find_meta_txt(path);
-    if (!meta_txt.empty()) {
-      auto frames = evimo_frames_from_meta(parse_python_literal(read_text_file(meta_txt), meta_txt),
-                                           meta_txt);
-      if (int64_t(frames.size()) != F)
-        fail(meta_txt, "",
-             std::to_string(frames.size()) + " frames listed, the npz mask has " +
-                 std::to_string(F));
-      for (auto& f : frames) times.push_back(f.t_us);
-      meta["mask_times"] = "meta.txt";
-    } else {
-      for (int64_t i = 0; i < F; ++i)
-        times.push_back(ev.empty() ? 0
-                                   : ev.t_first() + int64_t(std::llround((double(i) + 0.5) *
-                                                                         double(ev.duration_us()) /
-                                                                         double(F))));
-      meta["mask_times"] = "uniform-estimate";
-    }
+    std::vector<int64_t> times = mask_times(path, z.has("meta"), F, ev, meta);
     const size_t plane = size_t(mw) * size_t(mh);
     for (int64_t i = 0; i < F; ++i) {
       MaskFrame f;
@@ -122,7 +146,6 @@ std::unique_ptr<EventReader> open_evimo1_npz(const std::string& path, const Read
     std::stable_sort(extras.masks.begin(), extras.masks.end(),
                      [](const MaskFrame& a, const MaskFrame& b) { return a.t_us < b.t_us; });
   }
-  if (z.has("meta")) meta["skipped"] = "meta (pickled Python object)";
   extras.metadata_json = meta.dump();
   ev.sensor = evimo_sensor(opt, ev, mw, mh);
   return std::make_unique<MemoryEventReader>("evimo1", std::move(ev), std::move(extras));

@@ -3,11 +3,13 @@
 //   dataset_events_xy.npy  uint16 (N, 2)  x, y
 //   dataset_events_p.npy   uint8 (N,)     1 = ON, 0 = OFF
 //   dataset_mask.npz       mask_%010d.npy uint16 (H, W) = object id x 1000, one per frame
-//   dataset_info.npz       K, D, index, discretization, meta (pickled; not unpickled here)
+//   dataset_info.npz       K, D, index, discretization, meta (a pickled dict)
 // Layout from better-flow/evimo (pydvs evimo-gen.py) and the EVIMO2 "Ground Truth Format"
-// page. Frame times live only in the pickled meta, so as for EV-IMO v1 they come from a
-// meta.txt in the folder when present (frame i = the i-th mask in key order), else they are
-// spread evenly over the events and metadata_json says "mask_times": "uniform-estimate".
+// page. Frame times (frame i = the i-th mask in key order) live only in meta; as for EV-IMO v1
+// they come from the first that works of: meta read by the restricted unpickler (pickle.h,
+// plain data only; "mask_times": "meta"), a meta.txt in the folder ("meta.txt"), else frames
+// spread evenly over the events ("uniform-estimate"). When meta cannot be used, "meta_error"
+// in metadata_json says why (np.savez pickles a numpy object-array wrapper, which is refused).
 // Arrays are loaded whole (npy/npz); the events are then handed out in chunks.
 #include <algorithm>
 #include <cmath>
@@ -15,6 +17,7 @@
 
 #include "core/events/formats/evimo_common.h"
 #include "core/events/formats/memory_reader.h"
+#include "core/events/formats/pickle.h"
 #include "core/util/byte_source.h"
 #include "core/util/error.h"
 
@@ -23,6 +26,51 @@ namespace spikems {
 namespace fs = std::filesystem;
 
 namespace {
+
+// Frame times (us) from a meta dict's 'frames' list, which must describe all `count` masks.
+std::vector<int64_t> listed_times(const nlohmann::json& meta, const std::string& src,
+                                  size_t count) {
+  auto frames = evimo_frames_from_meta(meta, src);
+  if (frames.size() != count)
+    fail(src, "",
+         std::to_string(frames.size()) + " frames listed, dataset_mask.npz has " +
+             std::to_string(count));
+  std::vector<int64_t> times;
+  for (const auto& f : frames) times.push_back(f.t_us);
+  return times;
+}
+
+// Mask times from dataset_info.npz's meta, else meta.txt, else the uniform estimate (see the
+// top of the file); `info` gets "mask_times" and, when meta was there but unusable, "meta_error".
+std::vector<int64_t> mask_times(const std::string& dir, bool has_meta, size_t count,
+                                const EventStream& ev, nlohmann::json& info) {
+  const std::string info_npz = (fs::path(dir) / "dataset_info.npz").string();
+  if (has_meta) {
+    try {
+      auto times = listed_times(unpickle_npz_member(info_npz, "meta"), info_npz + ":meta", count);
+      info["mask_times"] = "meta";
+      return times;
+    } catch (const Error& e) {
+      info["meta_error"] = e.what();
+    }
+  }
+  const std::string meta_txt = (fs::path(dir) / "meta.txt").string();
+  std::error_code ec;
+  if (fs::is_regular_file(meta_txt, ec)) {
+    auto bytes = read_file_bytes(meta_txt);
+    info["mask_times"] = "meta.txt";
+    return listed_times(parse_python_literal(std::string(bytes.begin(), bytes.end()), meta_txt),
+                        meta_txt, count);
+  }
+  std::vector<int64_t> times;
+  for (size_t i = 0; i < count; ++i)
+    times.push_back(ev.empty()
+                        ? 0
+                        : ev.t_first() + std::llround((double(i) + 0.5) * double(ev.duration_us()) /
+                                                      double(count)));
+  info["mask_times"] = "uniform-estimate";
+  return times;
+}
 
 std::unique_ptr<EventReader> open_evimo2(const std::string& dir, const ReadOptions& opt) {
   auto file = [&](const char* n) { return (fs::path(dir) / n).string(); };
@@ -59,6 +107,7 @@ std::unique_ptr<EventReader> open_evimo2(const std::string& dir, const ReadOptio
   Recording extras;
   nlohmann::json meta = {{"source_format", "evimo2"}};
   std::error_code ec;
+  bool has_meta = false;
   if (fs::is_regular_file(file("dataset_info.npz"), ec)) {
     NpzFile info(file("dataset_info.npz"));
     if (info.has("K")) {
@@ -67,7 +116,7 @@ std::unique_ptr<EventReader> open_evimo2(const std::string& dir, const ReadOptio
       if (hasD) D = info.get("D");
       extras.intrinsics = evimo_intrinsics(info.get("K"), hasD ? &D : nullptr, info.source());
     }
-    if (info.has("meta")) meta["skipped"] = "dataset_info.npz:meta (pickled Python object)";
+    has_meta = info.has("meta");
   }
   int mw = 0, mh = 0;
   if (fs::is_regular_file(file("dataset_mask.npz"), ec)) {
@@ -76,26 +125,7 @@ std::unique_ptr<EventReader> open_evimo2(const std::string& dir, const ReadOptio
     for (const auto& k : masks.keys())
       if (k.rfind("mask_", 0) == 0) keys.push_back(k);
     std::sort(keys.begin(), keys.end());  // zero-padded numbers sort in frame order
-    std::vector<int64_t> times;
-    std::string meta_txt = file("meta.txt");
-    if (fs::is_regular_file(meta_txt, ec)) {
-      auto bytes = read_file_bytes(meta_txt);
-      auto frames = evimo_frames_from_meta(
-          parse_python_literal(std::string(bytes.begin(), bytes.end()), meta_txt), meta_txt);
-      if (frames.size() != keys.size())
-        fail(meta_txt, "",
-             std::to_string(frames.size()) + " frames listed, dataset_mask.npz has " +
-                 std::to_string(keys.size()));
-      for (auto& f : frames) times.push_back(f.t_us);
-      meta["mask_times"] = "meta.txt";
-    } else {
-      const double F = double(keys.size());
-      for (size_t i = 0; i < keys.size(); ++i)
-        times.push_back(ev.empty() ? 0
-                                   : ev.t_first() + std::llround((double(i) + 0.5) *
-                                                                 double(ev.duration_us()) / F));
-      meta["mask_times"] = "uniform-estimate";
-    }
+    std::vector<int64_t> times = mask_times(dir, has_meta, keys.size(), ev, meta);
     for (size_t i = 0; i < keys.size(); ++i) {
       NpyArray m = masks.get(keys[i]);
       if (m.shape.size() != 2 || m.descr[1] == 'f')

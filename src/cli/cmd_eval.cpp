@@ -1,0 +1,122 @@
+// `spikems eval`: a model's IoU and detection rate on labelled datasets, per window length, as
+// the paper reports them (docs/evaluation.md). Parses the options and calls core/eval.
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+
+#include "cli/command.h"
+#include "core/eval/evaluation.h"
+#include "core/eval/window_list.h"
+#include "core/util/error.h"
+#include "core/util/interrupt.h"
+
+namespace {
+
+using namespace spikems;
+
+// The model scored when --model is not given. None ships yet; when one does, return its path
+// here (this is the only place that needs to change).
+std::string default_model() {
+  return "";
+}
+
+struct Args {
+  std::string model, windows = "20,100", split = "test", out;
+  std::vector<std::string> data;
+  int threads = 1;
+  bool iir = false, quiet = false;
+  double max_seconds = 0;
+};
+
+// The command as typed (for the results' provenance), from /proc where there is one.
+std::string command_line() {
+  std::ifstream f("/proc/self/cmdline", std::ios::binary);
+  std::string raw((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::string out, arg;
+  auto flush = [&] {
+    const bool plain = !arg.empty() && arg.find_first_of(" \t'\"\\$`") == std::string::npos;
+    std::string q = plain ? arg : "'";
+    if (!plain) {
+      for (char c : arg) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+      q += "'";
+    }
+    out += (out.empty() ? "" : " ") + q;
+    arg.clear();
+  };
+  for (char c : raw)
+    if (c == 0)
+      flush();
+    else
+      arg += c;
+  return out.empty() ? "spikems eval" : out;
+}
+
+void run(const Args& a) {
+  install_interrupt_flag();
+  EvalOptions o;
+  o.model_path = a.model.empty() ? default_model() : a.model;
+  if (o.model_path.empty())
+    fail("spikems eval", "", "no model given: name the model file with --model FILE");
+  if (a.split != "train" && a.split != "val" && a.split != "test" && a.split != "all")
+    fail("--split", "", "'" + a.split + "' is not a split: use train, val, test or all");
+  if (a.max_seconds < 0) fail("--max-seconds", "", "must be positive");
+  o.data = a.data;
+  o.split = a.split;
+  o.windows_us = parse_window_list_ms(a.windows);
+  o.threads = a.threads;
+  o.iir = a.iir;
+  o.max_seconds = a.max_seconds;
+  o.progress = !a.quiet;
+  o.command_line = command_line();
+  const EvalResults r = evaluate(o);
+  if (!a.out.empty()) write_results(r, a.out);
+  std::fputs(results_table(r).c_str(), stdout);
+  std::fflush(stdout);
+  if (r.interrupted)
+    std::fprintf(stderr, "spikems eval: interrupted; the results hold the sequences finished\n");
+  if (!a.out.empty() && !a.quiet)
+    std::fprintf(stderr, "results in %s/results.{json,csv,md}\n", a.out.c_str());
+}
+
+void add(CLI::App& app) {
+  static Args a;
+  auto* cmd = app.add_subcommand(
+      "eval", "Score a model on labelled data: IoU and detection rate per window length");
+  cmd->footer(
+      "Each sequence runs once through the streaming network (whole sensor, state kept from "
+      "its first event) and is scored for every window length: P = pixels with output spikes "
+      "at steps starting in the window, G = pixels with moving-object events; windows start at "
+      "the first event, the partial last one is dropped, windows without moving objects are "
+      "skipped. See docs/evaluation.md.\n\n"
+      "Examples:\n"
+      "  spikems eval --model m.safetensors --data data/mod --out out/eval\n"
+      "  spikems eval --model m.safetensors --data data/mod --split all --windows 1:25 --out o\n"
+      "  spikems eval --model m.safetensors --data rec.h5 --data data/evimo --windows 10,20,100 "
+      "--iir --threads 2 --out o\n"
+      "  spikems eval --model m.safetensors --data data/mod --max-seconds 0.5   (a quick check)");
+  cmd->add_option("--model", a.model,
+                  "Model file (.safetensors, spikems format); required until a default ships");
+  cmd->add_option("--data", a.data,
+                  "Labelled data: a `spikems simulate` folder (manifest.json) or a labelled "
+                  "event file; repeat for several");
+  cmd->add_option("--split", a.split, "Split of simulator folders: train, val, test or all")
+      ->capture_default_str();
+  cmd->add_option("--windows", a.windows,
+                  "Window lengths in ms, comma-separated; ranges FROM:TO[:STEP] (1:25 = 1..25)")
+      ->capture_default_str();
+  cmd->add_option("--out", a.out, "Folder for results.json, results.csv and results.md");
+  cmd->add_option("--threads", a.threads,
+                  "Threads inside the network (the layers of a step run in parallel)")
+      ->check(CLI::Range(1, 256));
+  cmd->add_flag("--iir", a.iir,
+                "Run FIR layers with the exact recursions of the same neurons (faster; spikes "
+                "close to but not identical with the FIR model)");
+  cmd->add_option("--max-seconds", a.max_seconds,
+                  "Score only the first S seconds of each sequence (quick checks)");
+  cmd->add_flag("--quiet", a.quiet, "No progress bar or notes on stderr");
+  cmd->callback([] { run(a); });
+}
+
+}  // namespace
+
+SPIKEMS_COMMAND(eval, 45, add);

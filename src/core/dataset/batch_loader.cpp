@@ -1,0 +1,91 @@
+#include "core/dataset/batch_loader.h"
+
+namespace spikems {
+
+BatchLoader::BatchLoader(std::vector<const LabelledSequence*> seqs, std::vector<double> weights,
+                         SampleOptions opt, int batch, uint64_t seed, int64_t first_step,
+                         int prefetch, int threads)
+    : seqs_(std::move(seqs)),
+      weights_(std::move(weights)),
+      opt_(opt),
+      batch_(batch),
+      seed_(seed),
+      prefetch_(std::max(1, prefetch)),
+      next_claim_(first_step),
+      next_take_(first_step) {
+  for (int i = 0; i < std::max(1, threads); ++i) workers_.emplace_back([this] { work(); });
+}
+
+BatchLoader::~BatchLoader() {
+  {
+    std::lock_guard<std::mutex> l(mu_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  for (auto& w : workers_) w.join();
+}
+
+Batch BatchLoader::make(const std::vector<const LabelledSequence*>& seqs,
+                        const std::vector<double>& weights, const SampleOptions& opt, int batch,
+                        uint64_t seed, int64_t step) {
+  Batch b;
+  b.step = step;
+  for (int j = 0; j < batch; ++j) {
+    std::mt19937_64 rng(mix_seed(seed, uint64_t(step), uint64_t(j)));
+    SampleSpec s = draw_sample(seqs, weights, opt, rng);
+    b.samples.push_back(extract_sample(*seqs[s.sequence], s, opt));
+  }
+  return b;
+}
+
+void BatchLoader::work() {
+  while (true) {
+    int64_t step;
+    {
+      std::unique_lock<std::mutex> l(mu_);
+      cv_.wait(l, [&] { return stop_ || next_claim_ < next_take_ + prefetch_; });
+      if (stop_) return;
+      step = next_claim_++;
+    }
+    Batch b;
+    std::exception_ptr err;
+    try {
+      b = make(seqs_, weights_, opt_, batch_, seed_, step);
+    } catch (...) {
+      err = std::current_exception();
+    }
+    {
+      std::lock_guard<std::mutex> l(mu_);
+      if (err && !error_) error_ = err;
+      ready_[step] = std::move(b);
+    }
+    cv_.notify_all();
+  }
+}
+
+Batch BatchLoader::next() {
+  std::unique_lock<std::mutex> l(mu_);
+  cv_.wait(l, [&] { return error_ || ready_.count(next_take_); });
+  if (error_) std::rethrow_exception(error_);
+  Batch b = std::move(ready_[next_take_]);
+  ready_.erase(next_take_++);
+  l.unlock();
+  cv_.notify_all();
+  return b;
+}
+
+std::vector<Sample> validation_samples(const std::vector<const LabelledSequence*>& seqs,
+                                       const SampleOptions& opt, int count, uint64_t seed) {
+  SampleOptions o = opt;
+  o.flip_x = o.flip_y = o.polarity_swap = o.drop_max = o.threshold_jitter = o.noise_hz_max = 0;
+  const std::vector<double> weights(seqs.size(), 1.0);
+  std::vector<Sample> out;
+  for (int i = 0; i < count; ++i) {
+    std::mt19937_64 rng(mix_seed(seed, 0x7A11DA7Eull, uint64_t(i)));
+    SampleSpec s = draw_sample(seqs, weights, o, rng);
+    out.push_back(extract_sample(*seqs[s.sequence], s, o));
+  }
+  return out;
+}
+
+}  // namespace spikems

@@ -1,0 +1,34 @@
+// `spikems eval` as a library call: one model over labelled datasets (simulator folders with
+// their splits, or labelled recordings), each sequence run once through the streaming
+// Segmenter and scored for every window length (sequence_scorer.h), pooled per dataset
+// (results.h).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/eval/results.h"
+
+namespace spikems {
+
+struct EvalOptions {
+  std::string model_path;
+  std::vector<std::string> data;  // simulator folders (manifest.json) or labelled files
+  std::string split = "test";     // simulator folders: train, val, test or all
+  std::vector<int64_t> windows_us = {20000, 100000};
+  int threads = 1;           // threads inside the network
+  bool iir = false;          // run FIR layers as their exact IIR recursions
+  double max_seconds = 0;    // > 0: only the first max_seconds of each sequence
+  bool progress = false;     // progress bar on stderr
+  std::string command_line;  // recorded in the results
+};
+
+// Loads the model and checks the windows and every data source before the first sequence
+// runs; Ctrl-C (when util/interrupt.h's flag is installed) stops at the next chunk and returns
+// the sequences finished so far, marked interrupted. Throws Error naming the file and what to
+// do: unreadable or invalid model, a window that is not a multiple of the model's step, a
+// missing path, an empty or unknown split, a sequence without labels.
+EvalResults evaluate(const EvalOptions& opt);
+
+}  // namespace spikems

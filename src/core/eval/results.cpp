@@ -1,0 +1,286 @@
+#include "core/eval/results.h"
+
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+
+#include "core/util/atomic_file.h"
+#include "core/util/error.h"
+
+namespace spikems {
+
+namespace fs = std::filesystem;
+
+WindowSummary summarize(int64_t window_us, const std::vector<const WindowScores*>& parts) {
+  WindowSummary s;
+  s.window_us = window_us;
+  s.sequences = parts.size();
+  double sum = 0, detections = 0;
+  for (const WindowScores* p : parts) {
+    s.windows += p->windows();
+    s.skipped += p->skipped();
+    for (double v : p->ious()) sum += v;
+    // WindowScores keeps the rate only; rate * windows is the integer count it came from.
+    detections += std::round(p->detection_rate() * double(p->windows()));
+  }
+  if (s.windows == 0) return s;
+  const double n = double(s.windows), mean = sum / n;
+  double var = 0;
+  for (const WindowScores* p : parts)
+    for (double v : p->ious()) var += (v - mean) * (v - mean);
+  s.iou_mean = 100 * mean;
+  s.iou_std = 100 * std::sqrt(var / n);
+  s.detection_rate = 100 * detections / n;
+  return s;
+}
+
+DatasetResult dataset_result(std::string data, std::string split,
+                             const std::vector<SequenceScore>& sequences) {
+  DatasetResult d;
+  d.data = std::move(data);
+  d.split = std::move(split);
+  if (sequences.empty()) return d;
+  const auto& windows = sequences.front().windows_us;
+  for (const auto& s : sequences) {
+    if (s.windows_us != windows)
+      fail(s.name, "", "scored with other window lengths than the dataset's other sequences");
+    SequenceResult r;
+    r.name = s.name;
+    r.events = s.events;
+    r.duration_s = double(s.span_us) * 1e-6;
+    for (size_t i = 0; i < windows.size(); ++i)
+      r.windows.push_back(summarize(windows[i], {&s.scores[i]}));
+    d.events += s.events;
+    d.sequences.push_back(std::move(r));
+  }
+  for (size_t i = 0; i < windows.size(); ++i) {
+    std::vector<const WindowScores*> parts;
+    for (const auto& s : sequences) parts.push_back(&s.scores[i]);
+    d.windows.push_back(summarize(windows[i], parts));
+  }
+  return d;
+}
+
+std::string utc_now_iso8601() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char b[32];
+  std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return b;
+}
+
+namespace {
+
+double window_ms(int64_t us) {
+  return double(us) / 1000.0;
+}
+
+nlohmann::ordered_json row_json(const WindowSummary& w, bool with_sequences) {
+  nlohmann::ordered_json j;
+  j["window_ms"] = window_ms(w.window_us);
+  const bool any = w.windows > 0;
+  j["iou_mean"] = any ? nlohmann::ordered_json(w.iou_mean) : nlohmann::ordered_json(nullptr);
+  j["iou_std"] = any ? nlohmann::ordered_json(w.iou_std) : nlohmann::ordered_json(nullptr);
+  j["detection_rate"] =
+      any ? nlohmann::ordered_json(w.detection_rate) : nlohmann::ordered_json(nullptr);
+  j["windows"] = w.windows;
+  j["skipped_windows"] = w.skipped;
+  if (with_sequences) j["sequences"] = w.sequences;
+  return j;
+}
+
+std::string fmt(const char* f, double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, f, v);
+  return b;
+}
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+std::string csv_row(const std::string& level, const ModelResult& m, const DatasetResult& d,
+                    const std::string& sequence, const WindowSummary& w) {
+  const bool any = w.windows > 0;
+  std::string r = level + "," + csv_field(m.path) + "," + csv_field(d.data) + "," +
+                  csv_field(d.split) + "," + csv_field(sequence) + "," +
+                  fmt("%g", window_ms(w.window_us)) + ",";
+  r += any ? fmt("%.4f", w.iou_mean) + "," + fmt("%.4f", w.iou_std) + "," +
+                 fmt("%.4f", w.detection_rate)
+           : std::string(",,");
+  r += "," + std::to_string(w.windows) + "," + std::to_string(w.skipped) + "," +
+       std::to_string(w.sequences) + "\n";
+  return r;
+}
+
+// Display width of UTF-8 text (code points; the tables use ±, Δ and –).
+size_t width(const std::string& s) {
+  size_t n = 0;
+  for (unsigned char c : s) n += (c & 0xC0) != 0x80;
+  return n;
+}
+
+// A Markdown table whose columns line up in a terminal too.
+std::string markdown_table(const std::vector<std::string>& head,
+                           const std::vector<std::vector<std::string>>& rows) {
+  std::vector<size_t> w(head.size(), 3);
+  for (size_t c = 0; c < head.size(); ++c) w[c] = std::max(w[c], width(head[c]));
+  for (const auto& r : rows)
+    for (size_t c = 0; c < r.size(); ++c) w[c] = std::max(w[c], width(r[c]));
+  auto line = [&](const std::vector<std::string>& cells) {
+    std::string s = "|";
+    for (size_t c = 0; c < cells.size(); ++c)
+      s += " " + cells[c] + std::string(w[c] - width(cells[c]), ' ') + " |";
+    return s + "\n";
+  };
+  std::string out = line(head) + "|";
+  for (size_t c = 0; c < head.size(); ++c) out += std::string(w[c] + 2, '-') + "|";
+  out += "\n";
+  for (const auto& r : rows) out += line(r);
+  return out;
+}
+
+std::vector<std::string> score_cells(const WindowSummary& w) {
+  if (w.windows == 0) return {"–", "–"};
+  return {fmt("%.1f", w.iou_mean) + " ± " + fmt("%.1f", w.iou_std), fmt("%.1f", w.detection_rate)};
+}
+
+std::string file_name(const std::string& path) {
+  const std::string f = fs::path(path).filename().string();
+  return f.empty() ? path : f;
+}
+
+}  // namespace
+
+nlohmann::ordered_json results_json(const EvalResults& r) {
+  nlohmann::ordered_json j;
+  j["format"] = "spikems-eval-results";
+  j["version"] = 1;
+  j["command"] = r.command_line;
+  j["date"] = r.date;
+  j["working_directory"] = r.working_directory;
+  nlohmann::ordered_json wins = nlohmann::ordered_json::array();
+  for (int64_t w : r.windows_us) wins.push_back(window_ms(w));
+  j["windows_ms"] = wins;
+  j["max_seconds"] =
+      r.max_seconds > 0 ? nlohmann::ordered_json(r.max_seconds) : nlohmann::ordered_json(nullptr);
+  j["interrupted"] = r.interrupted;
+  j["protocol"] = {
+      {"window_start", "first event of each sequence"},
+      {"partial_last_window", "dropped"},
+      {"prediction", "pixels with an output spike at a step whose start lies in the window"},
+      {"truth", "pixels with input events labelled moving (label != 0) in the window"},
+      {"iou", "|P and G| / |P or G| per window; mean and population std over windows"},
+      {"detection", "0-MMS: |P and G| > 0.5 |G| and |P and G| > |P - G|"},
+      {"skipped", "windows whose G is empty are not scored, only counted"},
+      {"units", "iou and detection_rate in percent (0-100)"}};
+  nlohmann::ordered_json models = nlohmann::ordered_json::array();
+  for (const auto& m : r.models) {
+    nlohmann::ordered_json jm;
+    jm["model"] = m.path;
+    jm["name"] = m.name;
+    jm["time_step_ms"] = m.time_step_ms;
+    jm["iir"] = m.iir;
+    nlohmann::ordered_json ds = nlohmann::ordered_json::array();
+    for (const auto& d : m.datasets) {
+      nlohmann::ordered_json jd;
+      jd["data"] = d.data;
+      jd["split"] =
+          d.split.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(d.split);
+      jd["sequences"] = d.sequences.size();
+      jd["events"] = d.events;
+      jd["windows"] = nlohmann::ordered_json::array();
+      for (const auto& w : d.windows) jd["windows"].push_back(row_json(w, true));
+      jd["per_sequence"] = nlohmann::ordered_json::array();
+      for (const auto& s : d.sequences) {
+        nlohmann::ordered_json js;
+        js["sequence"] = s.name;
+        js["events"] = s.events;
+        js["duration_s"] = s.duration_s;
+        js["windows"] = nlohmann::ordered_json::array();
+        for (const auto& w : s.windows) js["windows"].push_back(row_json(w, false));
+        jd["per_sequence"].push_back(std::move(js));
+      }
+      ds.push_back(std::move(jd));
+    }
+    jm["datasets"] = std::move(ds);
+    models.push_back(std::move(jm));
+  }
+  j["models"] = std::move(models);
+  return j;
+}
+
+std::string results_csv(const EvalResults& r) {
+  std::string out =
+      "level,model,data,split,sequence,window_ms,iou_mean,iou_std,detection_rate,windows,"
+      "skipped_windows,sequences\n";
+  for (const auto& m : r.models)
+    for (const auto& d : m.datasets) {
+      for (const auto& w : d.windows) out += csv_row("dataset", m, d, "", w);
+      for (const auto& s : d.sequences)
+        for (const auto& w : s.windows) out += csv_row("sequence", m, d, s.name, w);
+    }
+  return out;
+}
+
+std::string results_table(const EvalResults& r) {
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& m : r.models)
+    for (const auto& d : m.datasets)
+      for (const auto& w : d.windows) {
+        auto sc = score_cells(w);
+        rows.push_back({file_name(m.path), d.data, d.split.empty() ? "–" : d.split,
+                        fmt("%g", window_ms(w.window_us)), sc[0], sc[1], std::to_string(w.windows),
+                        std::to_string(w.skipped), std::to_string(w.sequences)});
+      }
+  return markdown_table({"model", "data", "split", "Δt ms", "IoU % (mean ± std)", "detection %",
+                         "windows", "skipped", "sequences"},
+                        rows);
+}
+
+std::string results_markdown(const EvalResults& r) {
+  std::string out = "# spikems eval\n\n";
+  out += "- command: `" + r.command_line + "`\n";
+  out += "- date: " + r.date + "\n";
+  for (const auto& m : r.models)
+    out += "- model: `" + m.path + "` (" + m.name + ", time step " + fmt("%g", m.time_step_ms) +
+           " ms" + (m.iir ? ", FIR layers run as IIR" : "") + ")\n";
+  if (r.max_seconds > 0) out += "- first " + fmt("%g", r.max_seconds) + " s of each sequence\n";
+  if (r.interrupted) out += "- **interrupted**: the sequences finished before Ctrl-C only\n";
+  out +=
+      "\nIoU of the pixels with output spikes (steps starting in the window) against the "
+      "pixels with moving-object events, per window from each sequence's first event (the "
+      "partial last window dropped); mean ± std over all scored windows of a dataset; "
+      "detection = 0-MMS. Windows without moving-object events are skipped (counted). See "
+      "docs/evaluation.md.\n\n";
+  out += results_table(r);
+  out += "\n## Per sequence\n\n";
+  std::vector<std::vector<std::string>> rows;
+  for (const auto& m : r.models)
+    for (const auto& d : m.datasets)
+      for (const auto& s : d.sequences)
+        for (const auto& w : s.windows) {
+          auto sc = score_cells(w);
+          rows.push_back({file_name(m.path), file_name(s.name), fmt("%g", window_ms(w.window_us)),
+                          sc[0], sc[1], std::to_string(w.windows), std::to_string(w.skipped)});
+        }
+  out += markdown_table(
+      {"model", "sequence", "Δt ms", "IoU % (mean ± std)", "detection %", "windows", "skipped"},
+      rows);
+  return out;
+}
+
+void write_results(const EvalResults& r, const std::string& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) fail(dir, "", "cannot create the output folder: " + ec.message());
+  write_file_atomic((fs::path(dir) / "results.json").string(), results_json(r).dump(2) + "\n");
+  write_file_atomic((fs::path(dir) / "results.csv").string(), results_csv(r));
+  write_file_atomic((fs::path(dir) / "results.md").string(), results_markdown(r));
+}
+
+}  // namespace spikems

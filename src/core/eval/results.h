@@ -1,0 +1,75 @@
+// Evaluation results (`spikems eval`): per model, per dataset, per window length, pooled over
+// every scored window of every sequence, plus per-sequence rows; written as results.json
+// (schema in docs/evaluation.md), results.csv and results.md. Percentages are 0-100.
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/eval/metrics.h"
+#include "core/eval/sequence_scorer.h"
+
+namespace spikems {
+
+struct WindowSummary {
+  int64_t window_us = 0;
+  size_t windows = 0;  // scored windows (G not empty)
+  size_t skipped = 0;  // windows without moving-object events
+  size_t sequences = 0;
+  // Over the scored windows, in percent; meaningless (and written as null) when windows == 0.
+  double iou_mean = 0, iou_std = 0, detection_rate = 0;
+};
+
+// Pools the windows of several sequences (one WindowScores each): IoU mean and population
+// standard deviation over all their scored windows, detections over all of them.
+WindowSummary summarize(int64_t window_us, const std::vector<const WindowScores*>& parts);
+
+struct SequenceResult {
+  std::string name;
+  uint64_t events = 0;
+  double duration_s = 0;  // the span scored
+  std::vector<WindowSummary> windows;
+};
+
+struct DatasetResult {
+  std::string data;   // the --data path as given
+  std::string split;  // "" for a single recording (no splits)
+  uint64_t events = 0;
+  std::vector<WindowSummary> windows;  // pooled over the sequences
+  std::vector<SequenceResult> sequences;
+};
+
+DatasetResult dataset_result(std::string data, std::string split,
+                             const std::vector<SequenceScore>& sequences);
+
+struct ModelResult {
+  std::string path, name;
+  double time_step_ms = 1;
+  bool iir = false;  // FIR layers run as IIR recursions (--iir)
+  std::vector<DatasetResult> datasets;
+};
+
+struct EvalResults {
+  std::string command_line;
+  std::string date;  // UTC, ISO 8601
+  std::string working_directory;
+  double max_seconds = 0;    // 0: whole sequences
+  bool interrupted = false;  // Ctrl-C: the sequences finished so far
+  std::vector<int64_t> windows_us;
+  std::vector<ModelResult> models;
+};
+
+std::string utc_now_iso8601();
+
+// Keys in the documented order (docs/evaluation.md), for people reading the file.
+nlohmann::ordered_json results_json(const EvalResults& r);
+std::string results_csv(const EvalResults& r);
+// The summary table (one row per model, dataset and window), columns aligned.
+std::string results_table(const EvalResults& r);
+std::string results_markdown(const EvalResults& r);
+// DIR/results.json, results.csv, results.md (the folder is created), each written atomically.
+void write_results(const EvalResults& r, const std::string& dir);
+
+}  // namespace spikems

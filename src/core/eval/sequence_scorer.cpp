@@ -1,0 +1,94 @@
+#include "core/eval/sequence_scorer.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/eval/window_scorer.h"
+#include "core/runtime/segmenter.h"
+#include "core/util/error.h"
+
+namespace spikems {
+
+int64_t time_step_us(const ModelSpec& model) {
+  return std::max<int64_t>(1, std::llround(model.time_step_ms * 1000.0));
+}
+
+namespace {
+std::string ms_text(int64_t us) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%g ms", double(us) / 1000.0);
+  return b;
+}
+}  // namespace
+
+void check_windows(const std::vector<int64_t>& windows_us, int64_t step_us,
+                   const std::string& source) {
+  if (windows_us.empty()) fail(source, "", "no window length given");
+  for (int64_t w : windows_us) {
+    if (w <= 0) fail(source, "", "window " + ms_text(w) + ": a window length must be positive");
+    if (w % step_us != 0)
+      fail(source, "",
+           "window " + ms_text(w) + " is not a multiple of the model's time step (" +
+               ms_text(step_us) + "): use whole steps, e.g. " +
+               ms_text(std::max<int64_t>(1, (w + step_us / 2) / step_us) * step_us));
+  }
+}
+
+SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq,
+                             const std::vector<int64_t>& windows_us,
+                             const SequenceScoreOptions& opt) {
+  const EventStream& ev = seq.events;
+  check_windows(windows_us, time_step_us(model), "model '" + model.name + "'");
+  if (!ev.empty() && !ev.has_labels())
+    fail(seq.name, "", "no labels: scoring needs per-event labels (1 = moving object)");
+  SequenceScore r;
+  r.name = seq.name;
+  r.windows_us = windows_us;
+  r.scores.resize(windows_us.size());
+  if (ev.empty()) return r;
+
+  // The data scored: [t0, end); a cut (max_us) ends exactly at t0 + max_us when the sequence
+  // goes on past it, otherwise the data ends just after the last event.
+  const int64_t t0 = ev.t_first();
+  size_t n = ev.size();
+  int64_t end = ev.t_last() + 1;
+  if (opt.max_us > 0 && ev.t_last() >= t0 + opt.max_us) {
+    n = ev.time_range(t0, t0 + opt.max_us).second;
+    end = t0 + opt.max_us;
+  }
+
+  WindowScorer scorer(ev.sensor, windows_us);
+  SegmenterOptions so;
+  so.mask_window_us = scorer.frame_us();
+  so.threads = opt.threads;
+  so.block_steps = std::max(1, opt.block_steps);
+  so.label_tolerance_steps = 0;  // labels are not used; a shorter run-out at the end
+  Segmenter seg(model, ev.sensor, so, seq.name);
+  auto drain = [&] {
+    for (const auto& f : seg.frames()) scorer.add_frame(f);
+    seg.frames().clear();
+    seg.labelled().clear();
+  };
+  // Chunks bound the frames waiting in the segmenter (one sensor-sized frame per frame_us).
+  constexpr size_t kChunk = 4096;
+  for (size_t b = 0; b < n; b += kChunk) {
+    const EventStream chunk = ev.slice_index(b, std::min(n, b + kChunk));
+    scorer.add_events(chunk);  // before the frames the chunk gives (window_scorer.h)
+    seg.push(chunk);
+    drain();
+    r.events += chunk.size();
+    if (opt.progress && !opt.progress(r.events)) {
+      r.complete = false;
+      r.scores.assign(windows_us.size(), WindowScores{});
+      return r;
+    }
+  }
+  seg.finish();
+  drain();
+  scorer.finish(end);
+  r.span_us = end - t0;
+  r.scores = scorer.scores();
+  return r;
+}
+
+}  // namespace spikems

@@ -1,0 +1,50 @@
+// A model's scores on one labelled sequence, for several window lengths from one run: the
+// streaming Segmenter goes once over the whole sensor, its state continuous from the first
+// event as when deployed, and its prediction frames (of the gcd of the lengths) feed a
+// WindowScorer (window_scorer.h: P, G, causality, skipped and partial windows).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/dataset/sequence.h"
+#include "core/eval/metrics.h"
+#include "core/model/model_file.h"
+
+namespace spikems {
+
+struct SequenceScoreOptions {
+  int threads = 1;       // threads inside the network (Segmenter)
+  int block_steps = 16;  // steps per network block: faster, outputs identical
+  int64_t max_us = 0;    // > 0: score only [first event, first event + max_us)
+  // Called after each chunk with the events pushed so far; returning false stops the run
+  // (the result then has complete = false and no scores).
+  std::function<bool(uint64_t events_done)> progress;
+};
+
+struct SequenceScore {
+  std::string name;
+  uint64_t events = 0;  // events pushed through the network
+  int64_t span_us = 0;  // first event to the end of the data scored (partial window included)
+  bool complete = true;
+  std::vector<int64_t> windows_us;
+  std::vector<WindowScores> scores;  // one per window length
+};
+
+// The model's simulation step in microseconds (as the Segmenter takes it).
+int64_t time_step_us(const ModelSpec& model);
+
+// Throws Error, naming `source`, when the list is empty or a length is not a positive multiple
+// of the time step (a window must hold whole steps, or P and G would cover different times).
+void check_windows(const std::vector<int64_t>& windows_us, int64_t step_us,
+                   const std::string& source);
+
+// Windows start at the first event; the last, partial window is dropped. Throws Error (naming
+// the sequence) for unlabelled events, a model that does not fit the sensor, or a bad window.
+SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq,
+                             const std::vector<int64_t>& windows_us,
+                             const SequenceScoreOptions& opt = {});
+
+}  // namespace spikems

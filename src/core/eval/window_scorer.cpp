@@ -1,0 +1,169 @@
+#include "core/eval/window_scorer.h"
+
+#include <algorithm>
+#include <numeric>
+#include <string>
+
+#include "core/util/error.h"
+
+namespace spikems {
+
+int64_t frame_length_us(const std::vector<int64_t>& windows_us) {
+  int64_t g = 0;
+  for (int64_t w : windows_us) {
+    if (w <= 0) fail("window lengths", "", "a window length must be positive");
+    g = std::gcd(g, w);
+  }
+  return g;
+}
+
+WindowScorer::WindowScorer(SensorSize sensor, std::vector<int64_t> windows_us)
+    : sensor_(sensor), windows_(std::move(windows_us)) {
+  if (!sensor_.known()) fail("window scorer", "", "the sensor size is unknown");
+  if (windows_.empty()) fail("window scorer", "", "no window length given");
+  frame_us_ = frame_length_us(windows_);
+  for (int64_t w : windows_) {
+    PerLength l;
+    l.window_us = w;
+    l.frames_per_window = w / frame_us_;
+    lengths_.push_back(std::move(l));
+  }
+  scores_.resize(windows_.size());
+}
+
+std::vector<uint8_t>& WindowScorer::mask_of(std::map<int64_t, std::vector<uint8_t>>& m, int64_t k) {
+  auto it = m.find(k);
+  if (it != m.end()) return it->second;
+  std::vector<uint8_t> mask;
+  if (!pool_.empty()) {
+    mask = std::move(pool_.back());
+    pool_.pop_back();
+  } else {
+    mask.assign(size_t(sensor_.width) * size_t(sensor_.height), 0);
+  }
+  return m.emplace(k, std::move(mask)).first->second;
+}
+
+void WindowScorer::add_events(const EventStream& c) {
+  if (c.empty() || finished_) return;
+  if (!c.has_labels())
+    fail("window scorer", "",
+         "scoring needs labelled events (label = object id, 0 = background), e.g. from "
+         "`spikems simulate`");
+  if (!have_origin_) {
+    origin_ = last_t_ = c.t[0];
+    have_origin_ = true;
+  }
+  for (size_t i = 0; i < c.size(); ++i) {
+    const int64_t t = c.t[i];
+    if (t < last_t_) fail_at_event("window scorer", events_seen_ + i, "time goes back");
+    last_t_ = t;
+    if (c.label[i] == 0) continue;
+    if (c.x[i] >= sensor_.width || c.y[i] >= sensor_.height)
+      fail_at_event("window scorer", events_seen_ + i, "pixel outside the sensor");
+    const size_t px = size_t(c.y[i]) * size_t(sensor_.width) + c.x[i];
+    for (PerLength& l : lengths_) {
+      const int64_t k = (t - origin_) / l.window_us;
+      if (k != l.g_index) {  // events are time-ordered: the window changes rarely
+        l.g_mask = &mask_of(l.g, k);
+        l.g_index = k;
+      }
+      (*l.g_mask)[px] = 1;
+    }
+  }
+  events_seen_ += c.size();
+  for (size_t i = 0; i < lengths_.size(); ++i) score_ready(i);
+}
+
+void WindowScorer::add_frame(const PredictionFrame& f) {
+  if (finished_) return;
+  if (!have_origin_) fail("window scorer", "", "a prediction frame came before any event");
+  const std::string where =
+      "frame [" + std::to_string(f.t0_us) + ", " + std::to_string(f.t1_us) + ") us";
+  if (f.foreground.size() != size_t(sensor_.width) * size_t(sensor_.height))
+    fail("window scorer", where, "the frame does not have the sensor's size");
+  if (f.t1_us - f.t0_us != frame_us_ || (f.t0_us - origin_) % frame_us_ != 0 || f.t0_us < origin_)
+    fail("window scorer", where,
+         "frames must be " + std::to_string(frame_us_) +
+             " us long and aligned with the first event's time " + std::to_string(origin_));
+  const int64_t j = (f.t0_us - origin_) / frame_us_;
+  if (j < frames_done_) fail("window scorer", where, "frames must come once each, in time order");
+  fg_pixels_.clear();
+  for (size_t i = 0; i < f.foreground.size(); ++i)
+    if (f.foreground[i]) fg_pixels_.push_back(uint32_t(i));
+  if (!fg_pixels_.empty())
+    for (PerLength& l : lengths_) {
+      std::vector<uint8_t>& m = mask_of(l.p, j / l.frames_per_window);
+      for (uint32_t px : fg_pixels_) m[px] = 1;
+    }
+  frames_done_ = j + 1;
+  for (size_t i = 0; i < lengths_.size(); ++i) score_ready(i);
+}
+
+void WindowScorer::score_ready(size_t i) {
+  // A window is final when all its frames have come and an event at or after its end was
+  // seen (so its truth is complete and the data goes on past it).
+  PerLength& l = lengths_[i];
+  while ((l.next + 1) * l.frames_per_window <= frames_done_ &&
+         origin_ + (l.next + 1) * l.window_us <= last_t_)
+    score(i, l.next++);
+}
+
+void WindowScorer::score(size_t i, int64_t k) {
+  PerLength& l = lengths_[i];
+  auto g = l.g.find(k);
+  auto p = l.p.find(k);
+  MaskCounts c;  // no G: skipped by WindowScores whatever was predicted
+  if (g != l.g.end()) {
+    if (p != l.p.end()) {
+      c = count_masks(p->second, g->second);
+    } else {
+      if (zeros_.empty()) zeros_.assign(g->second.size(), 0);
+      c = count_masks(zeros_, g->second);
+    }
+  }
+  scores_[i].add(c);
+  auto release = [&](std::map<int64_t, std::vector<uint8_t>>& m) {
+    for (auto it = m.begin(); it != m.end() && it->first <= k; it = m.erase(it)) {
+      std::fill(it->second.begin(), it->second.end(), 0);
+      pool_.push_back(std::move(it->second));
+    }
+  };
+  release(l.p);
+  release(l.g);
+  if (l.g_index <= k) {
+    l.g_index = -1;
+    l.g_mask = nullptr;
+  }
+}
+
+void WindowScorer::finish(int64_t end_us, bool keep_partial) {
+  if (finished_) return;
+  finished_ = true;
+  if (!have_origin_) return;
+  const int64_t span = end_us - origin_;
+  for (size_t i = 0; i < lengths_.size(); ++i) {
+    PerLength& l = lengths_[i];
+    const int64_t n = span <= 0      ? 0
+                      : keep_partial ? (span + l.window_us - 1) / l.window_us
+                                     : span / l.window_us;
+    while (l.next < n) score(i, l.next++);
+    l.p.clear();
+    l.g.clear();
+    l.g_mask = nullptr;
+  }
+  pool_.clear();
+}
+
+std::vector<WindowScores> score_frames(const std::vector<PredictionFrame>& frames,
+                                       const EventStream& events,
+                                       const std::vector<int64_t>& windows_us, int64_t end_us,
+                                       bool keep_partial) {
+  WindowScorer s(events.sensor, windows_us);
+  s.add_events(events);
+  for (const auto& f : frames) s.add_frame(f);
+  s.finish(end_us, keep_partial);
+  return s.scores();
+}
+
+}  // namespace spikems

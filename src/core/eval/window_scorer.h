@@ -1,0 +1,83 @@
+// Scores prediction frames against labelled events, for several window lengths at once
+// (BRIEF.md section 6), streaming in bounded memory.
+//
+// Window k of length W covers [origin + k*W, origin + (k+1)*W), origin = the first event's
+// time. P = pixels predicted foreground in the window: the OR of the prediction frames it
+// holds (frames of frame_us() = the gcd of the lengths, so every window is a whole number of
+// frames; a frame holds the output spikes of the steps whose start lies in it, i.e. only what
+// the network said by the window's end). G = pixels with input events labelled != 0 in the
+// window. Each window goes through count_masks into one WindowScores per length (windows with
+// an empty G are skipped and counted there).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <vector>
+
+#include "core/eval/metrics.h"
+#include "core/events/event_stream.h"
+#include "core/runtime/mask_accumulator.h"
+
+namespace spikems {
+
+// Greatest common divisor of positive window lengths.
+int64_t frame_length_us(const std::vector<int64_t>& windows_us);
+
+class WindowScorer {
+ public:
+  // Throws Error when a length is not positive or the sensor size is unknown.
+  WindowScorer(SensorSize sensor, std::vector<int64_t> windows_us);
+
+  int64_t frame_us() const { return frame_us_; }  // the frame length add_frame() expects
+  const std::vector<int64_t>& windows_us() const { return windows_; }
+
+  // Labelled events in time order, continuing the previous chunks; the first event fixes the
+  // origin. Add a chunk's events before the frames that pushing it through the segmenter gave
+  // (a window is scored only once an event at or after its end was seen, or at finish()).
+  // Throws Error for events without labels.
+  void add_events(const EventStream& chunk);
+  // The next prediction frame, in time order: [origin + j*frame_us(), + frame_us()) for some
+  // j, sensor-sized, as Segmenter makes them with mask_window_us = frame_us(). Frames left
+  // out are empty predictions. Throws Error for a misaligned, repeated or wrongly sized frame.
+  void add_frame(const PredictionFrame& f);
+  // End of data at end_us (exclusive): scores every window ending at or before it (P of frames
+  // not given is empty) and drops later ones; with keep_partial also the window holding
+  // end_us - 1. Nothing is scored without events.
+  void finish(int64_t end_us, bool keep_partial = false);
+
+  // One per length, in the order given.
+  const std::vector<WindowScores>& scores() const { return scores_; }
+
+ private:
+  struct PerLength {
+    int64_t window_us = 0, frames_per_window = 0;
+    int64_t next = 0;                              // the next window to score
+    std::map<int64_t, std::vector<uint8_t>> p, g;  // windows with some P / G pixel
+    int64_t g_index = -1;                          // cache: the window g_mask belongs to
+    std::vector<uint8_t>* g_mask = nullptr;
+  };
+  std::vector<uint8_t>& mask_of(std::map<int64_t, std::vector<uint8_t>>& m, int64_t k);
+  void score_ready(size_t length);
+  void score(size_t length, int64_t k);
+
+  SensorSize sensor_;
+  std::vector<int64_t> windows_;
+  int64_t frame_us_ = 0;
+  std::vector<PerLength> lengths_;
+  std::vector<WindowScores> scores_;
+  bool have_origin_ = false, finished_ = false;
+  int64_t origin_ = 0, last_t_ = 0;
+  int64_t frames_done_ = 0;  // frames before this index are final
+  uint64_t events_seen_ = 0;
+  std::vector<uint32_t> fg_pixels_;         // scratch: a frame's predicted pixels
+  std::vector<std::vector<uint8_t>> pool_;  // cleared masks for reuse
+  std::vector<uint8_t> zeros_;              // P of a window without predictions
+};
+
+// Scores recorded or hand-made frames against labelled events in one go (see WindowScorer).
+std::vector<WindowScores> score_frames(const std::vector<PredictionFrame>& frames,
+                                       const EventStream& events,
+                                       const std::vector<int64_t>& windows_us, int64_t end_us,
+                                       bool keep_partial = false);
+
+}  // namespace spikems

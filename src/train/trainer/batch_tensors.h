@@ -1,0 +1,27 @@
+// A Batch of core samples as the tensors the network and the loss take, and the per-window
+// scores (IoU, detection) of a network output computed with the project's metrics code.
+#pragma once
+
+#include <torch/torch.h>
+
+#include "core/dataset/batch_loader.h"
+#include "core/eval/metrics.h"
+
+namespace spikems::train {
+
+struct BatchTensors {
+  torch::Tensor input;  // [T, B, 2, H, W] spikes (value 1/Ts)
+  torch::Tensor fg;     // [T, B, H, W] 1 where a moving-object event fell in the step
+  int warmup_steps = 0;
+};
+
+// Samples must share T, H, W and the warm-up. Throws Error otherwise.
+BatchTensors to_tensors(const std::vector<Sample>& samples, double ts, torch::Device device);
+
+// Scores each sample's window: P = pixels with any output spike in the window's steps
+// (out_window [Tw, B, C, H, W]), G = pixels with a foreground event in them (fg_window
+// [Tw, B, H, W]); adds one MaskCounts per sample to `scores`.
+void score_windows(const torch::Tensor& out_window, const torch::Tensor& fg_window,
+                   WindowScores& scores);
+
+}  // namespace spikems::train

@@ -1,0 +1,57 @@
+#include "train/trainer/checkpoint.h"
+
+#include <filesystem>
+
+#include "core/util/error.h"
+
+namespace spikems::train {
+
+void save_checkpoint(const std::string& path, SpikeMSNetwork& net, torch::optim::Optimizer& opt,
+                     const CheckpointState& st) {
+  torch::serialize::OutputArchive ar, model, optim;
+  net->save(model);
+  opt.save(optim);
+  ar.write("model", model);
+  ar.write("optimizer", optim);
+  ar.write("step", torch::tensor(st.step, torch::kInt64));
+  ar.write("best_val_iou", torch::tensor(st.best_val_iou, torch::kFloat64));
+  ar.write("best_step", torch::tensor(st.best_step, torch::kInt64));
+  ar.write("wall_seconds", torch::tensor(st.wall_seconds, torch::kFloat64));
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  try {
+    ar.save_to(tmp);
+    std::filesystem::rename(tmp, path);
+  } catch (const std::exception& e) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    fail(path, "", std::string("cannot write the checkpoint: ") + e.what());
+  }
+}
+
+CheckpointState load_checkpoint(const std::string& path, SpikeMSNetwork& net,
+                                torch::optim::Optimizer& opt) {
+  CheckpointState st;
+  try {
+    torch::serialize::InputArchive ar, model, optim;
+    ar.load_from(path);
+    ar.read("model", model);
+    ar.read("optimizer", optim);
+    net->load(model);
+    opt.load(optim);
+    torch::Tensor t;
+    ar.read("step", t);
+    st.step = t.item<int64_t>();
+    ar.read("best_val_iou", t);
+    st.best_val_iou = t.item<double>();
+    ar.read("best_step", t);
+    st.best_step = t.item<int64_t>();
+    ar.read("wall_seconds", t);
+    st.wall_seconds = t.item<double>();
+  } catch (const c10::Error& e) {
+    fail(path, "", "not a usable spikems checkpoint for this network: " +
+                       std::string(e.what_without_backtrace()));
+  }
+  return st;
+}
+
+}  // namespace spikems::train

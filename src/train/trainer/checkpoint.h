@@ -1,0 +1,29 @@
+// Training checkpoints: everything a run needs to continue exactly where it stopped — the
+// network's parameters, the optimizer's state (Adam moments), the step (which is also the data
+// position: batches are drawn from (seed, step) alone) and the best validation IoU so far.
+// One LibTorch archive, written to a temporary file and renamed into place, so a kill -9 at any
+// moment leaves the previous checkpoint intact.
+#pragma once
+
+#include <torch/torch.h>
+
+#include <string>
+
+#include "train/network/spikems_network.h"
+
+namespace spikems::train {
+
+struct CheckpointState {
+  int64_t step = 0;            // steps completed
+  double best_val_iou = -1;    // best validation IoU (%) so far, -1: none yet
+  int64_t best_step = -1;
+  double wall_seconds = 0;     // training time spent so far (over every session)
+};
+
+void save_checkpoint(const std::string& path, SpikeMSNetwork& net, torch::optim::Optimizer& opt,
+                     const CheckpointState& st);
+// Throws Error naming the file when it cannot be read or does not fit the network.
+CheckpointState load_checkpoint(const std::string& path, SpikeMSNetwork& net,
+                                torch::optim::Optimizer& opt);
+
+}  // namespace spikems::train

@@ -1,0 +1,300 @@
+#include "train/trainer/train_config.h"
+
+#include <set>
+#include <sstream>
+#include <toml++/toml.h>
+
+#include "core/util/error.h"
+
+namespace spikems::train {
+
+namespace {
+
+nlohmann::json toml_to_json(const toml::node& n) {
+  if (auto t = n.as_table()) {
+    nlohmann::json j = nlohmann::json::object();
+    for (auto& [k, v] : *t) j[std::string(k.str())] = toml_to_json(v);
+    return j;
+  }
+  if (auto a = n.as_array()) {
+    nlohmann::json j = nlohmann::json::array();
+    for (auto& v : *a) j.push_back(toml_to_json(v));
+    return j;
+  }
+  if (auto v = n.as_string()) return v->get();
+  if (auto v = n.as_integer()) return v->get();
+  if (auto v = n.as_floating_point()) return v->get();
+  if (auto v = n.as_boolean()) return v->get();
+  return nullptr;  // dates and times: no key takes them; the type check names the key
+}
+
+// "section.key=value": the value in TOML syntax ("0.5", "true", "[1, 2]", "\"x\""); a bare
+// word that is not valid TOML is taken as a string (so --set model.neurons=fir works).
+void apply_override(nlohmann::json& j, const std::string& kv, const std::string& source) {
+  const auto eq = kv.find('=');
+  const auto dot = kv.find('.');
+  if (eq == std::string::npos || dot == std::string::npos || dot > eq)
+    fail(source, "--set " + kv, "expected section.key=value, e.g. optim.lr=0.001");
+  const std::string section = kv.substr(0, dot), key = kv.substr(dot + 1, eq - dot - 1);
+  const std::string value = kv.substr(eq + 1);
+  nlohmann::json v;
+  try {
+    toml::table t = toml::parse("v = " + value);
+    v = toml_to_json(*t.get("v"));
+  } catch (const toml::parse_error&) {
+    v = value;
+  }
+  j[section][key] = v;
+}
+
+class Binder {
+ public:
+  Binder(const nlohmann::json& j, std::string source) : j_(j), source_(std::move(source)) {
+    if (!j_.is_object()) fail(source_, "", "the configuration must be a table");
+  }
+  template <typename T>
+  void bind(const char* section, const char* key, T& value) {
+    used_.insert(std::string(section) + "." + key);
+    const nlohmann::json* v = find(section, key);
+    if (v) {
+      try {
+        if constexpr (std::is_same_v<T, bool>) {
+          if (!v->is_boolean()) throw std::invalid_argument("a boolean");
+        } else if constexpr (std::is_integral_v<T>) {
+          if (!v->is_number_integer()) throw std::invalid_argument("an integer");
+        } else if constexpr (std::is_floating_point_v<T>) {
+          if (!v->is_number()) throw std::invalid_argument("a number");
+        } else if constexpr (std::is_same_v<T, std::string>) {
+          if (!v->is_string()) throw std::invalid_argument("a string");
+        }
+        value = v->get<T>();
+      } catch (const std::exception& e) {
+        fail(source_, std::string(section) + "." + key,
+             std::string("wrong type: expected ") + e.what() + ", got " + v->dump());
+      }
+    }
+    out_[section][key] = value;
+  }
+  void bind_list(const char* section, const char* key, std::vector<double>& value) {
+    used_.insert(std::string(section) + "." + key);
+    const nlohmann::json* v = find(section, key);
+    if (v) {
+      if (!v->is_array()) bad(section, key, "expected a list of numbers");
+      value.clear();
+      for (const auto& x : *v) {
+        if (!x.is_number()) bad(section, key, "expected a list of numbers");
+        value.push_back(x.get<double>());
+      }
+    }
+    out_[section][key] = value;
+  }
+  void bind_sources(const char* section, const char* key, std::vector<DatasetSource>& value,
+                    const char* default_split) {
+    used_.insert(std::string(section) + "." + key);
+    const nlohmann::json* v = find(section, key);
+    if (v) {
+      if (!v->is_array()) bad(section, key, "expected a list of {path, split, weight} tables");
+      value.clear();
+      for (const auto& d : *v) {
+        DatasetSource s;
+        s.split = default_split;
+        if (d.is_string()) {
+          s.path = d.get<std::string>();
+        } else if (d.is_object()) {
+          for (auto& [k, x] : d.items()) {
+            if (k == "path" && x.is_string())
+              s.path = x.get<std::string>();
+            else if (k == "split" && x.is_string())
+              s.split = x.get<std::string>();
+            else if (k == "weight" && x.is_number())
+              s.weight = x.get<double>();
+            else if (k == "mask_dilation" && x.is_number_integer())
+              s.mask_dilation = x.get<int>();
+            else
+              bad(section, key, "entry key \"" + k + "\" unknown or of the wrong type (path, "
+                                "split, weight, mask_dilation)");
+          }
+        } else {
+          bad(section, key, "expected a list of {path, split, weight} tables");
+        }
+        if (s.path.empty()) bad(section, key, "an entry has no path");
+        if (!(s.weight > 0)) bad(section, key, "weights must be positive");
+        value.push_back(s);
+      }
+    }
+    nlohmann::json a = nlohmann::json::array();
+    for (const auto& s : value)
+      a.push_back({{"path", s.path},
+                   {"split", s.split},
+                   {"weight", s.weight},
+                   {"mask_dilation", s.mask_dilation}});
+    out_[section][key] = a;
+  }
+  // Every key of the input must have been bound.
+  void check_unknown() const {
+    for (auto& [sec, t] : j_.items()) {
+      if (!t.is_object()) fail(source_, sec, "unknown key (sections: model, data, sample, loss, "
+                                             "optim, run; see docs/training.md)");
+      for (auto& [k, v] : t.items())
+        if (!used_.count(sec + "." + k))
+          fail(source_, sec + "." + k, "unknown key (see docs/training.md for every key)");
+    }
+  }
+  [[noreturn]] void bad(const std::string& section, const std::string& key,
+                        const std::string& why) const {
+    fail(source_, section + "." + key, why);
+  }
+  const nlohmann::json& resolved() const { return out_; }
+
+ private:
+  const nlohmann::json* find(const char* section, const char* key) const {
+    auto s = j_.find(section);
+    if (s == j_.end() || !s->is_object()) return nullptr;
+    auto k = s->find(key);
+    return k == s->end() ? nullptr : &*k;
+  }
+  const nlohmann::json& j_;
+  std::string source_;
+  std::set<std::string> used_;
+  nlohmann::json out_ = nlohmann::json::object();
+};
+
+void one_of(const Binder& b, const char* sec, const char* key, const std::string& v,
+            std::initializer_list<const char*> allowed) {
+  std::string list;
+  for (const char* a : allowed) {
+    if (v == a) return;
+    list += std::string(list.empty() ? "" : ", ") + a;
+  }
+  b.bad(sec, key, "\"" + v + "\" is not one of " + list);
+}
+
+void positive(const Binder& b, const char* sec, const char* key, double v) {
+  if (!(v > 0)) b.bad(sec, key, "must be positive");
+}
+
+}  // namespace
+
+TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
+                                   const std::vector<std::string>& overrides) {
+  for (const auto& o : overrides) apply_override(j, o, source);
+  TrainConfig c;
+  Binder b(j, source);
+  b.bind("model", "padded", c.padded);
+  b.bind("model", "neurons", c.neurons);
+  b.bind("model", "surrogate", c.surrogate);
+  b.bind("model", "backward", c.backward);
+  b.bind("model", "delays", c.delays);
+  b.bind("model", "init", c.init);
+  b.bind_list("model", "init_rates", c.init_rates);
+  b.bind_sources("data", "train", c.train, "train");
+  b.bind_sources("data", "val", c.val, "val");
+  SampleOptions& s = c.sample;
+  double window_ms = double(s.window_us) / 1000, warmup_ms = double(s.warmup_us) / 1000,
+         step_ms = double(s.step_us) / 1000;
+  b.bind("sample", "window_ms", window_ms);
+  b.bind("sample", "warmup_ms", warmup_ms);
+  b.bind("sample", "step_ms", step_ms);
+  b.bind("sample", "crop", s.crop);
+  b.bind("sample", "centred_fraction", s.centred_fraction);
+  b.bind("sample", "jitter", s.jitter);
+  b.bind("sample", "min_fg_pixels", s.min_fg_pixels);
+  b.bind("sample", "max_bg_fg_ratio", s.max_bg_fg_ratio);
+  b.bind("sample", "flip_x", s.flip_x);
+  b.bind("sample", "flip_y", s.flip_y);
+  b.bind("sample", "polarity_swap", s.polarity_swap);
+  b.bind("sample", "drop_max", s.drop_max);
+  b.bind("sample", "threshold_jitter", s.threshold_jitter);
+  b.bind("sample", "noise_hz_max", s.noise_hz_max);
+  b.bind("loss", "kind", c.loss);
+  b.bind("loss", "lambda", c.lambda);
+  b.bind("loss", "projection", c.projection);
+  b.bind("loss", "alpha", c.alpha);
+  b.bind("loss", "beta", c.beta);
+  b.bind("loss", "kappa", c.kappa);
+  b.bind("loss", "all_pixels", c.all_pixels);
+  b.bind("loss", "pos_weight", c.pos_weight);
+  b.bind("loss", "balanced", c.balanced);
+  b.bind("loss", "activity_weight", c.activity_weight);
+  b.bind("loss", "rate_floor", c.rate_floor);
+  b.bind("loss", "floor_weight", c.floor_weight);
+  b.bind("optim", "lr", c.lr);
+  b.bind("optim", "min_lr", c.min_lr);
+  b.bind("optim", "weight_decay", c.weight_decay);
+  b.bind("optim", "amsgrad", c.amsgrad);
+  b.bind("optim", "schedule", c.schedule);
+  b.bind("optim", "warmup_steps", c.warmup_steps);
+  b.bind("optim", "step_every", c.step_every);
+  b.bind("optim", "step_gamma", c.step_gamma);
+  b.bind("optim", "batch", c.batch);
+  b.bind("optim", "steps", c.steps);
+  b.bind("optim", "clip", c.clip);
+  int64_t seed = int64_t(c.seed);
+  b.bind("run", "seed", seed);
+  c.seed = uint64_t(seed);
+  b.bind("run", "threads", c.threads);
+  b.bind("run", "device", c.device);
+  b.bind("run", "log_every", c.log_every);
+  b.bind("run", "val_every", c.val_every);
+  b.bind("run", "checkpoint_every", c.checkpoint_every);
+  b.bind("run", "val_samples", c.val_samples);
+  b.bind("run", "prefetch", c.prefetch);
+  b.check_unknown();
+
+  one_of(b, "model", "neurons", c.neurons, {"iir", "fir"});
+  one_of(b, "model", "surrogate", c.surrogate, {"spikems", "slayer"});
+  one_of(b, "model", "backward", c.backward, {"slayer", "exact"});
+  if (c.init_rates.size() != 6) b.bad("model", "init_rates", "needs one rate per layer (6)");
+  for (double r : c.init_rates)
+    if (!(r > 0 && r < 1)) b.bad("model", "init_rates", "rates must lie in (0, 1)");
+  if (c.train.empty()) b.bad("data", "train", "no training data: give at least one dataset");
+  positive(b, "sample", "step_ms", step_ms);
+  positive(b, "sample", "window_ms", window_ms);
+  if (warmup_ms < 0) b.bad("sample", "warmup_ms", "must not be negative");
+  s.step_us = int64_t(std::llround(step_ms * 1000));
+  s.window_us = int64_t(std::llround(window_ms * 1000));
+  s.warmup_us = int64_t(std::llround(warmup_ms * 1000));
+  if (s.crop < 0 || (s.crop > 0 && s.crop < 16)) b.bad("sample", "crop", "0 (whole sensor) or >= 16");
+  if (s.centred_fraction < 0 || s.centred_fraction > 1)
+    b.bad("sample", "centred_fraction", "must lie in [0, 1]");
+  for (auto [k, v] : {std::pair{"flip_x", s.flip_x}, {"flip_y", s.flip_y},
+                      {"polarity_swap", s.polarity_swap}, {"drop_max", s.drop_max}})
+    if (v < 0 || v > 1) b.bad("sample", k, "must lie in [0, 1]");
+  if (s.threshold_jitter < 0) b.bad("sample", "threshold_jitter", "must not be negative");
+  if (s.noise_hz_max < 0) b.bad("sample", "noise_hz_max", "must not be negative");
+  one_of(b, "loss", "kind", c.loss, {"bce", "spike", "both"});
+  one_of(b, "loss", "projection", c.projection, {"sigmoid", "exponential"});
+  if (c.lambda < 0) b.bad("loss", "lambda", "must not be negative");
+  if (c.activity_weight < 0) b.bad("loss", "activity_weight", "must not be negative");
+  if (c.rate_floor < 0 || c.rate_floor >= 1) b.bad("loss", "rate_floor", "must lie in [0, 1)");
+  if (c.floor_weight < 0) b.bad("loss", "floor_weight", "must not be negative");
+  positive(b, "loss", "pos_weight", c.pos_weight);
+  positive(b, "optim", "lr", c.lr);
+  one_of(b, "optim", "schedule", c.schedule, {"cosine", "step", "constant"});
+  if (c.batch < 1) b.bad("optim", "batch", "must be at least 1");
+  if (c.steps < 1) b.bad("optim", "steps", "must be at least 1");
+  if (c.warmup_steps < 0) b.bad("optim", "warmup_steps", "must not be negative");
+  if (c.step_every < 1) b.bad("optim", "step_every", "must be at least 1");
+  one_of(b, "run", "device", c.device, {"cpu", "cuda"});
+  if (c.threads < 0) b.bad("run", "threads", "must not be negative");
+  for (auto [k, v] : {std::pair{"log_every", c.log_every}, {"val_every", c.val_every},
+                      {"checkpoint_every", c.checkpoint_every}, {"prefetch", c.prefetch}})
+    if (v < 1) b.bad("run", k, "must be at least 1");
+  if (c.val_samples < 0) b.bad("run", "val_samples", "must not be negative");
+  c.source = b.resolved();
+  return c;
+}
+
+TrainConfig load_train_config(const std::string& path, const std::vector<std::string>& overrides) {
+  toml::table t;
+  try {
+    t = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream pos;
+    pos << "line " << e.source().begin.line << ", column " << e.source().begin.column;
+    fail(path, pos.str(), std::string(e.description()));
+  }
+  return train_config_from_json(toml_to_json(t), path, overrides);
+}
+
+}  // namespace spikems::train

@@ -1,0 +1,430 @@
+#include "train/trainer/trainer.h"
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+#include <thread>
+
+#include "core/model/model_file.h"
+#include "core/util/atomic_file.h"
+#include "core/util/error.h"
+#include "core/util/interrupt.h"
+#include "core/util/progress.h"
+#include "core/viz/svg_plot.h"
+#include "train/loss/spikems_loss.h"
+#include "train/trainer/batch_tensors.h"
+#include "train/trainer/checkpoint.h"
+#include "train/trainer/weight_init.h"
+
+namespace spikems::train {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+ModelSpec initial_spec(const TrainConfig& c) {
+  ModelSpec spec;
+  if (c.init != "data") {
+    spec = load_model(c.init);  // fine-tuning: geometry and neurons from the file
+  } else {
+    spec = spikems_architecture(c.padded, c.neurons == "iir" ? Discretisation::IIR
+                                                             : Discretisation::FIR);
+    for (auto& l : spec.layers)
+      l.neuron.surrogate = c.surrogate == "slayer" ? SurrogateForm::Slayer : SurrogateForm::SpikeMS;
+  }
+  return spec;
+}
+
+std::string cpu_name() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
+  return "unknown CPU";
+}
+
+double lr_at(const TrainConfig& c, int64_t step) {
+  if (step < c.warmup_steps) return c.lr * double(step + 1) / double(c.warmup_steps);
+  const double s = double(step - c.warmup_steps);
+  if (c.schedule == "constant") return c.lr;
+  if (c.schedule == "step") return c.lr * std::pow(c.step_gamma, std::floor(s / c.step_every));
+  const double span = std::max(1.0, double(c.steps - c.warmup_steps));
+  return c.min_lr +
+         0.5 * (c.lr - c.min_lr) * (1 + std::cos(std::numbers::pi * std::min(1.0, s / span)));
+}
+
+LossOptions loss_options(const TrainConfig& c, double ts) {
+  LossOptions o;
+  o.projection = c.projection == "sigmoid" ? LossOptions::Projection::Sigmoid
+                                           : LossOptions::Projection::Exponential;
+  o.alpha = c.alpha;
+  o.beta = c.beta;
+  o.kappa = c.kappa;
+  o.lambda = c.lambda;
+  o.ts = ts;
+  o.all_pixels = c.all_pixels;
+  o.pos_weight = c.pos_weight;
+  o.balanced = c.balanced;
+  return o;
+}
+
+struct StepOutput {
+  torch::Tensor total, bce, spike, activity;
+  std::vector<double> rates;
+  torch::Tensor out_window, fg_window;
+};
+
+StepOutput forward_loss(SpikeMSNetwork& net, const BatchTensors& bt, const TrainConfig& c,
+                        const LossOptions& lo, double ts) {
+  const int64_t T = bt.input.size(0), H = bt.input.size(3), W = bt.input.size(4);
+  const int64_t w0 = bt.warmup_steps, tw = T - w0;
+  std::vector<torch::Tensor> layers = net->forward_all(bt.input);
+  StepOutput o;
+  torch::Tensor out = align_to_input(layers.back(), H, W).narrow(0, w0, tw);
+  torch::Tensor in = bt.input.narrow(0, w0, tw), fg = bt.fg.narrow(0, w0, tw);
+  const auto zero = torch::zeros({}, out.options());
+  o.bce = c.loss != "spike" ? bce_loss(out, in, fg, lo) : zero;
+  o.spike = c.loss != "bce" ? van_rossum_loss(out, foreground_target(in, fg), lo) : zero;
+  o.activity = zero;
+  for (size_t k = 0; k < layers.size(); ++k) {
+    const torch::Tensor rate = layers[k].mean() * ts;
+    o.rates.push_back(rate.item<double>());
+    if (c.activity_weight > 0) o.activity = o.activity + c.activity_weight * rate;
+    if (c.floor_weight > 0 && c.rate_floor > 0 && k + 1 < layers.size())
+      o.activity = o.activity + c.floor_weight * torch::relu(1 - rate / c.rate_floor).pow(2);
+  }
+  o.total = (c.loss == "spike" ? zero : o.bce) + (c.loss == "bce" ? zero : lo.lambda * o.spike) +
+            o.activity;
+  o.out_window = out;
+  o.fg_window = fg;
+  return o;
+}
+
+nlohmann::json rates_json(const std::vector<double>& r) {
+  nlohmann::json a = nlohmann::json::array();
+  for (double v : r) a.push_back(std::round(v * 1e6) / 1e6);
+  return a;
+}
+
+struct Curves {
+  std::vector<double> step, loss, val_step, val_iou, val_det;
+  void add(const nlohmann::json& j) {
+    if (j.value("kind", "") == "train") {
+      step.push_back(j["step"].get<double>());
+      loss.push_back(j["loss"].get<double>());
+    } else if (j.value("kind", "") == "val") {
+      val_step.push_back(j["step"].get<double>());
+      val_iou.push_back(j["iou"].get<double>());
+      val_det.push_back(j["detection_rate"].get<double>());
+    }
+  }
+  void write(const std::string& path) const {
+    if (step.empty()) return;
+    PlotOptions po;
+    po.title = "Training loss";
+    po.x_label = "step";
+    po.y_label = "loss";
+    po.height = 300;
+    std::string svg = svg_line_plot({{"train loss", step, loss, {}, ""}}, po);
+    std::string all = svg;
+    if (!val_step.empty()) {
+      PlotOptions pv = po;
+      pv.title = "Validation";
+      pv.y_label = "%";
+      pv.y_min = 0;
+      pv.y_max = 100;
+      all = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"640\" height=\"700\">" +
+            std::string("<g>") + svg + "</g><g transform=\"translate(0,320)\">" +
+            svg_line_plot({{"IoU", val_step, val_iou, {}, ""},
+                           {"detection rate", val_step, val_det, {}, ""}},
+                          pv) +
+            "</g></svg>";
+    }
+    write_svg(path, all);
+  }
+};
+
+// Keeps the log lines of steps up to `step` (a resumed run rewrites what followed).
+Curves trim_log(const std::string& path, int64_t step) {
+  Curves cv;
+  std::ifstream in(path);
+  std::string line, kept;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(line);
+    } catch (...) {
+      continue;  // a line cut by a kill
+    }
+    if (j.value("step", int64_t(0)) > step) continue;
+    cv.add(j);
+    kept += line + "\n";
+  }
+  write_file_atomic(path, kept);
+  return cv;
+}
+
+std::string percent(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.1f", v);
+  return b;
+}
+
+}  // namespace
+
+TrainConfig load_run_config(const std::string& out_dir, const std::vector<std::string>& overrides) {
+  const std::string path = (fs::path(out_dir) / "config.json").string();
+  std::ifstream in(path);
+  if (!in) fail(path, "", "no such file: is " + out_dir + " a `spikems train` run folder?");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const std::exception& e) {
+    fail(path, "", std::string("not valid JSON: ") + e.what());
+  }
+  return train_config_from_json(j, path, overrides);
+}
+
+TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
+  const auto t_start = std::chrono::steady_clock::now();
+  const fs::path dir(ro.out_dir);
+  const std::string ckpt_path = (dir / "checkpoint.pt").string();
+  if (ro.resume && !fs::exists(ckpt_path))
+    fail(ckpt_path, "", "no checkpoint to resume from (has the run written one yet?)");
+  if (!ro.resume && fs::exists(ckpt_path))
+    fail(ro.out_dir, "",
+         "holds a run already: continue it with --resume, or choose another --out");
+  fs::create_directories(dir);
+  if (c.device == "cuda" && !torch::cuda::is_available())
+    fail("run.device", "", "cuda asked for, but this LibTorch has no CUDA device");
+  const torch::Device device(c.device == "cuda" ? torch::kCUDA : torch::kCPU);
+  const int threads = c.threads > 0 ? c.threads : int(std::thread::hardware_concurrency());
+  torch::set_num_threads(std::max(1, threads));
+  torch::manual_seed(c.seed);
+  install_interrupt_flag();
+
+  // Data: everything in memory (a 2 s simulated sequence is ~100 MB).
+  std::vector<LabelledSequence> train_seqs, val_seqs;
+  std::vector<double> weights;
+  for (const auto& src : c.train) {
+    auto s = load_sequences(src, ro.progress);
+    for (auto& q : s) {
+      weights.push_back(src.weight / double(s.size()));
+      train_seqs.push_back(std::move(q));
+    }
+  }
+  for (const auto& src : c.val) {
+    auto s = load_sequences(src, ro.progress);
+    for (auto& q : s) val_seqs.push_back(std::move(q));
+  }
+  std::vector<const LabelledSequence*> train_ptr, val_ptr;
+  for (auto& s : train_seqs) train_ptr.push_back(&s);
+  for (auto& s : val_seqs) val_ptr.push_back(&s);
+  const double ts = double(c.sample.step_us) / 1000.0;
+
+  ModelSpec spec = initial_spec(c);
+  spec.time_step_ms = ts;
+  const SpikeGradient grad = c.backward == "exact" ? SpikeGradient::Exact : SpikeGradient::Slayer;
+  SpikeMSNetwork net(spec, grad);
+  if (c.delays)
+    for (size_t k = 0; k < net->size(); ++k) net->layer(k)->enable_delay(true);
+  torch::optim::Adam opt(net->parameters(), torch::optim::AdamOptions(c.lr)
+                                                .amsgrad(c.amsgrad)
+                                                .weight_decay(c.weight_decay));
+  CheckpointState st;
+  const std::string log_path = (dir / "log.jsonl").string();
+  Curves curves;
+  if (ro.resume) {
+    st = load_checkpoint(ckpt_path, net, opt);
+    curves = trim_log(log_path, st.step);
+  } else {
+    write_file_atomic((dir / "config.json").string(), c.source.dump(2) + "\n");
+    write_file_atomic(log_path, "");
+    if (c.init == "data") {
+      Batch b = BatchLoader::make(train_ptr, weights, c.sample, std::max(4, c.batch), c.seed,
+                                  -1);
+      BatchTensors bt = to_tensors(b.samples, ts, torch::kCPU);
+      auto r = init_weights_from_data(net, bt.input, c.init_rates, c.seed);
+      if (ro.progress) {
+        std::fprintf(stderr, "init: layer firing rates");
+        for (double v : r) std::fprintf(stderr, " %.4f", v);
+        std::fprintf(stderr, "\n");
+      }
+    }
+  }
+  net->to(device);
+  std::ofstream log(log_path, std::ios::app);
+  auto log_line = [&](const nlohmann::json& j) {
+    log << j.dump() << "\n";
+    log.flush();
+    curves.add(j);
+  };
+  log_line({{"kind", "run"},
+            {"step", st.step},
+            {"event", ro.resume ? "resume" : "start"},
+            {"threads", threads},
+            {"device", c.device},
+            {"command", ro.command}});
+
+  const std::vector<Sample> val = val_ptr.empty() || c.val_samples == 0
+                                      ? std::vector<Sample>{}
+                                      : validation_samples(val_ptr, c.sample, c.val_samples,
+                                                           c.seed);
+  const LossOptions lo = loss_options(c, ts);
+
+  auto save_model_file = [&](const std::string& path) {
+    ModelSpec m = net->to_spec();
+    m.name = dir.filename().string();
+    m.training = {{"config", c.source},
+                  {"steps", st.step},
+                  {"wall_seconds", st.wall_seconds},
+                  {"best_val_iou", st.best_val_iou},
+                  {"best_step", st.best_step},
+                  {"hardware", {{"cpu", cpu_name()}, {"threads", threads}, {"device", c.device}}},
+                  {"command", ro.command},
+                  {"trainer", "spikems train 0.1.0"}};
+    save_model(path, m);
+  };
+  auto validate = [&]() -> nlohmann::json {
+    torch::NoGradGuard ng;
+    WindowScores ws;
+    double loss = 0;
+    std::vector<double> rates(net->size(), 0.0);
+    int batches = 0;
+    for (size_t i = 0; i < val.size(); i += size_t(c.batch)) {
+      std::vector<Sample> part(val.begin() + i,
+                               val.begin() + std::min(val.size(), i + size_t(c.batch)));
+      BatchTensors bt = to_tensors(part, ts, device);
+      StepOutput o = forward_loss(net, bt, c, lo, ts);
+      score_windows(o.out_window, o.fg_window, ws);
+      loss += o.total.item<double>();
+      for (size_t k = 0; k < rates.size(); ++k) rates[k] += o.rates[k];
+      ++batches;
+    }
+    for (double& r : rates) r /= std::max(1, batches);
+    return {{"kind", "val"},
+            {"step", st.step},
+            {"loss", loss / std::max(1, batches)},
+            {"iou", 100 * ws.mean_iou()},
+            {"iou_std", 100 * ws.std_iou()},
+            {"detection_rate", 100 * ws.detection_rate()},
+            {"windows", ws.windows()},
+            {"skipped", ws.skipped()},
+            {"rates", rates_json(rates)}};
+  };
+  auto checkpoint = [&]() {
+    save_checkpoint(ckpt_path, net, opt, st);
+    save_model_file((dir / "model.safetensors").string());
+  };
+
+  if (!ro.resume && !val.empty()) log_line(validate());  // the untrained network's score
+  BatchLoader loader(train_ptr, weights, c.sample, c.batch, c.seed, st.step, c.prefetch);
+  ProgressBar bar("train", uint64_t(c.steps) * uint64_t(c.batch), "samples", ro.progress);
+  bar.update(uint64_t(st.step) * uint64_t(c.batch));
+  TrainResult res;
+  double ema_loss = -1, ema_iou = -1;
+  WindowScores train_ws;
+  double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_act = 0;
+  std::vector<double> sum_rates(net->size(), 0.0);
+  int in_sum = 0;
+  auto seg_start = std::chrono::steady_clock::now();
+  const double wall_before = st.wall_seconds;
+  while (st.step < c.steps) {
+    if (interrupted()) break;
+    Batch b = loader.next();
+    BatchTensors bt = to_tensors(b.samples, ts, device);
+    const double lr = lr_at(c, st.step);
+    for (auto& g : opt.param_groups())
+      static_cast<torch::optim::AdamOptions&>(g.options()).lr(lr);
+    opt.zero_grad();
+    StepOutput o = forward_loss(net, bt, c, lo, ts);
+    const double loss = o.total.item<double>();
+    if (!std::isfinite(loss))
+      fail(ro.out_dir, "step " + std::to_string(st.step + 1),
+           "the loss is " + std::string(std::isnan(loss) ? "NaN" : "infinite") +
+               "; stopped. The last good checkpoint (step " + std::to_string(st.step -
+               st.step % c.checkpoint_every) + ") is kept: lower optim.lr or raise optim.clip, "
+               "then --resume");
+    o.total.backward();
+    if (c.clip > 0) torch::nn::utils::clip_grad_norm_(net->parameters(), c.clip);
+    opt.step();
+    ++st.step;
+    WindowScores ws;
+    score_windows(o.out_window, o.fg_window, ws);
+    score_windows(o.out_window, o.fg_window, train_ws);
+    ema_loss = ema_loss < 0 ? loss : 0.95 * ema_loss + 0.05 * loss;
+    if (ws.windows()) ema_iou = ema_iou < 0 ? ws.mean_iou() : 0.95 * ema_iou + 0.05 * ws.mean_iou();
+    sum_loss += loss;
+    sum_bce += o.bce.item<double>();
+    sum_spike += o.spike.item<double>();
+    sum_act += o.activity.item<double>();
+    for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += o.rates[k];
+    ++in_sum;
+    st.wall_seconds =
+        wall_before + std::chrono::duration<double>(std::chrono::steady_clock::now() - seg_start)
+                          .count();
+    char status[160];
+    std::snprintf(status, sizeof status, "step %lld loss %.4f IoU %.1f%%", (long long)st.step,
+                  ema_loss, 100 * std::max(0.0, ema_iou));
+    bar.set_status(status);
+    bar.update(uint64_t(st.step) * uint64_t(c.batch));
+    if (st.step % c.log_every == 0 || st.step == c.steps) {
+      std::vector<double> r = sum_rates;
+      for (double& v : r) v /= in_sum;
+      log_line({{"kind", "train"},
+                {"step", st.step},
+                {"loss", sum_loss / in_sum},
+                {"bce", sum_bce / in_sum},
+                {"spike", sum_spike / in_sum},
+                {"activity", sum_act / in_sum},
+                {"iou", 100 * train_ws.mean_iou()},
+                {"detection_rate", 100 * train_ws.detection_rate()},
+                {"lr", lr},
+                {"rates", rates_json(r)},
+                {"samples_per_s", double(in_sum * c.batch) /
+                                      std::max(1e-9, st.wall_seconds - res.wall_seconds)},
+                {"wall_s", st.wall_seconds}});
+      res.wall_seconds = st.wall_seconds;
+      sum_loss = sum_bce = sum_spike = sum_act = 0;
+      std::fill(sum_rates.begin(), sum_rates.end(), 0.0);
+      in_sum = 0;
+      train_ws = WindowScores();
+    }
+    if (!val.empty() && (st.step % c.val_every == 0 || st.step == c.steps)) {
+      nlohmann::json v = validate();
+      log_line(v);
+      if (v["iou"].get<double>() > st.best_val_iou) {
+        st.best_val_iou = v["iou"].get<double>();
+        st.best_step = st.step;
+        save_model_file((dir / "best.safetensors").string());
+      }
+      curves.write((dir / "curves.svg").string());
+      if (ro.progress)
+        std::fprintf(stderr, "%sval step %lld: IoU %s %% (best %s at %lld), detection %s %%\n",
+                     isatty(2) ? "\n" : "", (long long)st.step,
+                     percent(v["iou"].get<double>()).c_str(), percent(st.best_val_iou).c_str(),
+                     (long long)st.best_step,
+                     percent(v["detection_rate"].get<double>()).c_str());
+    }
+    if (st.step % c.checkpoint_every == 0 || st.step == c.steps) checkpoint();
+    res.final_loss = loss;
+  }
+  bar.finish();
+  if (st.step % c.checkpoint_every != 0 && st.step != c.steps) checkpoint();  // interrupted
+  curves.write((dir / "curves.svg").string());
+  log_line({{"kind", "run"},
+            {"step", st.step},
+            {"event", st.step >= c.steps ? "done" : "interrupted"},
+            {"wall_s", st.wall_seconds}});
+  res.steps = st.step;
+  res.best_val_iou = st.best_val_iou;
+  res.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start)
+                         .count();
+  return res;
+}
+
+}  // namespace spikems::train

@@ -1,0 +1,220 @@
+// `spikems eval` as a user runs it: on a tiny simulated dataset with a hand-built model, the
+// result files and their schema; each kind of bad input stops with exit 1 and a clear message.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "common/test_paths.h"
+#include "core/dataset/sequence.h"
+#include "core/model/model_file.h"
+
+namespace spikems {
+namespace {
+
+namespace fs = std::filesystem;
+using test::run_command;
+using test::spikems_binary;
+
+std::string slurp(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// One tiny dataset (3 sequences of 0.2 s, 64x48: one each in train, val, test) and a model
+// for the whole test program.
+class EvalCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = (fs::temp_directory_path() / ("spikems_test_EvalCli_" + std::to_string(::getpid())))
+               .string();
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    test::scratch_registry.dirs.push_back(dir_);
+    std::string out;
+    setup_rc_ = run_command(spikems_binary() +
+                                " simulate --preset tiny --sequences 3 --duration 0.2s --out " +
+                                dir_ + "/tiny --no-progress",
+                            &out);
+    setup_out_ = out;
+    // A 1x1 convolution passing both polarities to the output: every pixel with events is
+    // predicted (one step later), so the moving object's pixels are found among the rest.
+    ModelSpec m;
+    m.name = "pass-all";
+    LayerSpec l;
+    l.in_channels = 2;
+    l.out_channels = 2;
+    l.kernel = 1;
+    l.stride = 1;
+    l.weight = {1.f, 0.f, 0.f, 1.f};
+    m.layers = {l};
+    fill_fir_kernels(m);
+    save_model(dir_ + "/pass_all.safetensors", m);
+  }
+  void SetUp() override { ASSERT_EQ(setup_rc_, 0) << setup_out_; }
+  static std::string data() { return dir_ + "/tiny"; }
+  static std::string model() { return dir_ + "/pass_all.safetensors"; }
+  static std::string eval(const std::string& args) {
+    return spikems_binary() + " eval --quiet --model " + model() + " " + args;
+  }
+  static inline std::string dir_, setup_out_;
+  static inline int setup_rc_ = -1;
+};
+
+// (last - first + 1 us) / window: the complete windows of a sequence, scored or skipped.
+int64_t complete_windows(const std::string& file, int64_t window_us, int64_t max_us = 0) {
+  const LabelledSequence s = load_sequence(file);
+  int64_t span = s.events.t_last() + 1 - s.events.t_first();
+  if (max_us > 0 && s.events.t_last() >= s.events.t_first() + max_us) span = max_us;
+  return span / window_us;
+}
+
+TEST_F(EvalCli, WritesResultsWithEveryWindowLength) {
+  const std::string o = dir_ + "/out_all";
+  std::string out;
+  ASSERT_EQ(
+      run_command(eval("--data " + data() + " --split all --windows 20,100 --out " + o), &out), 0)
+      << out;
+  const auto j = nlohmann::json::parse(slurp(o + "/results.json"));
+  for (const char* k : {"format", "version", "command", "date", "working_directory", "windows_ms",
+                        "max_seconds", "interrupted", "protocol", "models"})
+    EXPECT_TRUE(j.contains(k)) << k;
+  EXPECT_EQ(j["format"], "spikems-eval-results");
+  EXPECT_NE(j["command"].get<std::string>().find("--windows 20,100"), std::string::npos);
+  EXPECT_EQ(j["windows_ms"], nlohmann::json({20.0, 100.0}));
+  ASSERT_EQ(j["models"].size(), 1u);
+  const auto& m = j["models"][0];
+  EXPECT_EQ(m["model"], model());
+  EXPECT_EQ(m["name"], "pass-all");
+  EXPECT_EQ(m["time_step_ms"], 1.0);
+  ASSERT_EQ(m["datasets"].size(), 1u);
+  const auto& d = m["datasets"][0];
+  EXPECT_EQ(d["data"], data());
+  EXPECT_EQ(d["split"], "all");
+  EXPECT_EQ(d["sequences"], 3);
+  ASSERT_EQ(d["windows"].size(), 2u);
+  ASSERT_EQ(d["per_sequence"].size(), 3u);
+  const int64_t lengths[] = {20000, 100000};
+  for (size_t i = 0; i < 2; ++i) {
+    const auto& w = d["windows"][i];
+    EXPECT_EQ(w["window_ms"], double(lengths[i]) / 1000);
+    for (const char* k :
+         {"iou_mean", "iou_std", "detection_rate", "windows", "skipped_windows", "sequences"})
+      EXPECT_TRUE(w.contains(k)) << k;
+    EXPECT_EQ(w["sequences"], 3);
+    // Every complete window of every sequence is counted once; the partial last one is not.
+    int64_t want = 0, got = 0;
+    for (const auto& s : d["per_sequence"]) {
+      const auto& sw = s["windows"][i];
+      EXPECT_EQ(sw["window_ms"], w["window_ms"]);
+      const int64_t n = complete_windows(s["sequence"], lengths[i]);
+      EXPECT_EQ(sw["windows"].get<int64_t>() + sw["skipped_windows"].get<int64_t>(), n)
+          << s["sequence"];
+      want += n;
+      got += sw["windows"].get<int64_t>();
+    }
+    EXPECT_EQ(w["windows"].get<int64_t>() + w["skipped_windows"].get<int64_t>(), want);
+    EXPECT_EQ(w["windows"].get<int64_t>(), got);
+    ASSERT_GT(got, 0);
+    // Every event pixel is predicted: the moving object is found, with the background too.
+    EXPECT_GT(w["iou_mean"].get<double>(), 1.0);
+    EXPECT_LT(w["iou_mean"].get<double>(), 100.0);
+    EXPECT_GE(w["detection_rate"].get<double>(), 0.0);
+    EXPECT_LE(w["detection_rate"].get<double>(), 100.0);
+  }
+  // CSV: header, 2 dataset rows and 3 x 2 sequence rows.
+  const std::string csv = slurp(o + "/results.csv");
+  EXPECT_EQ(csv.rfind("level,model,data,split,sequence,window_ms,", 0), 0u);
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 9);
+  const std::string md = slurp(o + "/results.md");
+  EXPECT_NE(md.find("| model "), std::string::npos) << md;
+  EXPECT_NE(md.find("## Per sequence"), std::string::npos) << md;
+  // The table on stdout too.
+  EXPECT_NE(out.find("IoU % (mean ± std)"), std::string::npos) << out;
+  EXPECT_NE(out.find("| pass_all.safetensors |"), std::string::npos) << out;
+}
+
+TEST_F(EvalCli, RangesCutsAndSeveralSources) {
+  const std::string o = dir_ + "/out_range";
+  const std::string file = data() + "/seq_0000.h5";
+  std::string out;
+  ASSERT_EQ(run_command(eval("--data " + data() + " --data " + file +
+                             " --windows 1:5 --max-seconds 0.05 --threads 2 --out " + o),
+                        &out),
+            0)
+      << out;
+  const auto j = nlohmann::json::parse(slurp(o + "/results.json"));
+  EXPECT_EQ(j["max_seconds"], 0.05);
+  const auto& ds = j["models"][0]["datasets"];
+  ASSERT_EQ(ds.size(), 2u);
+  EXPECT_EQ(ds[0]["split"], "test");  // the default split
+  EXPECT_EQ(ds[0]["sequences"], 1);
+  EXPECT_TRUE(ds[1]["split"].is_null());  // a single recording has no splits
+  EXPECT_EQ(ds[1]["per_sequence"][0]["sequence"], file);
+  for (const auto& d : ds) {
+    ASSERT_EQ(d["windows"].size(), 5u);
+    for (int k = 1; k <= 5; ++k) {
+      const auto& w = d["windows"][k - 1];
+      EXPECT_EQ(w["window_ms"], double(k));
+      // 50 ms of each 200 ms sequence: 50, 25, 16, 12, 10 complete windows.
+      EXPECT_EQ(w["windows"].get<int64_t>() + w["skipped_windows"].get<int64_t>(), 50 / k);
+    }
+    EXPECT_DOUBLE_EQ(d["per_sequence"][0]["duration_s"].get<double>(), 0.05);
+  }
+  EXPECT_EQ(complete_windows(file, 3000, 50000), 16);
+}
+
+TEST_F(EvalCli, BadInputStopsWithAClearMessage) {
+  const std::string o = dir_ + "/out_bad";
+  std::string out;
+  // A recording without labels.
+  const std::string plain = dir_ + "/plain.txt";
+  std::ofstream(plain) << "# sensor 64 48\n1000 1 1 1\n2000 2 2 0\n";
+  EXPECT_EQ(run_command(eval("--data " + plain + " --out " + o), &out), 1);
+  EXPECT_NE(out.find(plain), std::string::npos) << out;
+  EXPECT_NE(out.find("no labels"), std::string::npos) << out;
+  // An empty split.
+  fs::create_directories(dir_ + "/empty");
+  std::ofstream(dir_ + "/empty/manifest.json")
+      << R"({"splits": {"train": ["x.h5"], "val": [], "test": []}})";
+  EXPECT_EQ(run_command(eval("--data " + dir_ + "/empty --out " + o), &out), 1);
+  EXPECT_NE(out.find("manifest.json"), std::string::npos) << out;
+  EXPECT_NE(out.find("lists no sequences"), std::string::npos) << out;
+  EXPECT_EQ(run_command(eval("--data " + data() + " --split nope --out " + o), &out), 1);
+  EXPECT_NE(out.find("nope"), std::string::npos) << out;
+  // Window lists that do not parse, are not positive or not whole steps.
+  EXPECT_EQ(run_command(eval("--data " + data() + " --windows 20,abc --out " + o), &out), 1);
+  EXPECT_NE(out.find("'abc'"), std::string::npos) << out;
+  EXPECT_EQ(run_command(eval("--data " + data() + " --windows 0 --out " + o), &out), 1);
+  EXPECT_NE(out.find("positive"), std::string::npos) << out;
+  EXPECT_EQ(run_command(eval("--data " + data() + " --windows 2.5 --out " + o), &out), 1);
+  EXPECT_NE(out.find("not a multiple of the model's time step"), std::string::npos) << out;
+  // Missing, unreadable, invalid or absent model.
+  const std::string nomodel = spikems_binary() + " eval --quiet --data " + data() + " --out " + o;
+  EXPECT_EQ(run_command(nomodel + " --model " + dir_ + "/missing.safetensors", &out), 1);
+  EXPECT_NE(out.find(dir_ + "/missing.safetensors"), std::string::npos) << out;
+  std::ofstream(dir_ + "/bad.safetensors") << "not a model";
+  EXPECT_EQ(run_command(nomodel + " --model " + dir_ + "/bad.safetensors", &out), 1);
+  EXPECT_NE(out.find("bad.safetensors"), std::string::npos) << out;
+  EXPECT_EQ(run_command(nomodel, &out), 1);
+  EXPECT_NE(out.find("--model"), std::string::npos) << out;
+  // A missing data path.
+  EXPECT_EQ(run_command(eval("--data " + dir_ + "/nowhere --out " + o), &out), 1);
+  EXPECT_NE(out.find(dir_ + "/nowhere"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(o + "/results.json"));  // nothing written on an error
+}
+
+TEST_F(EvalCli, HelpShowsOptionsAndExamples) {
+  std::string out;
+  ASSERT_EQ(run_command(spikems_binary() + " eval --help", &out), 0) << out;
+  for (const char* k : {"--model", "--data", "--split", "--windows", "--out", "--threads", "--iir",
+                        "--max-seconds", "--quiet", "Examples", "1:25"})
+    EXPECT_NE(out.find(k), std::string::npos) << k;
+}
+
+}  // namespace
+}  // namespace spikems

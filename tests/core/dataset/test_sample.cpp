@@ -1,0 +1,214 @@
+// Sample extraction (core/dataset): binning, ground truth, crops, augmentations and the
+// deterministic draws a resumed training run relies on.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "core/dataset/batch_loader.h"
+#include "core/dataset/sample.h"
+#include "core/dataset/sequence.h"
+#include "core/events/io.h"
+#include "core/util/error.h"
+
+namespace spikems {
+namespace {
+
+// 100 x 80 sensor; background events along row 10 every ms, a moving object's events at
+// (50 + t_ms / 2, 40) (label 3), 0..49 ms.
+LabelledSequence synthetic() {
+  LabelledSequence s;
+  s.name = "synthetic";
+  s.events.sensor = {100, 80};
+  for (int ms = 0; ms < 50; ++ms) {
+    s.events.push_back(ms * 1000 + 100, uint16_t(ms % 100), 10, 1, 0);
+    s.events.push_back(ms * 1000 + 200, uint16_t(50 + ms / 2), 40, uint8_t(ms % 2), 1);
+  }
+  return s;
+}
+
+SampleOptions plain() {
+  SampleOptions o;
+  o.window_us = 10000;
+  o.warmup_us = 5000;
+  o.crop = 32;
+  o.flip_x = o.flip_y = o.polarity_swap = o.drop_max = o.threshold_jitter = o.noise_hz_max = 0;
+  return o;
+}
+
+TEST(Sample, BinsEventsAndForegroundIntoTheCrop) {
+  const LabelledSequence seq = synthetic();
+  SampleOptions o = plain();
+  SampleSpec s;
+  s.t0 = 20000;
+  s.crop_x = 40;
+  s.crop_y = 5;
+  s.crop_w = 32;
+  s.crop_h = 48;
+  Sample x = extract_sample(seq, s, o);
+  ASSERT_EQ(x.T, 15);
+  EXPECT_EQ(x.warmup_steps, 5);
+  ASSERT_EQ(x.H, 48);
+  ASSERT_EQ(x.W, 32);
+  for (int t = 0; t < 15; ++t) {
+    const int ms = 20 + t;
+    // Background event at column ms (inside the crop from x = 40) on row 10 -> crop row 5.
+    const int bx = ms - 40;
+    if (bx >= 0 && bx < 32) {
+      EXPECT_EQ(x.input[x.at(t, 1, 5, bx)], 1) << t;
+      EXPECT_EQ(x.fg[size_t(t) * 48 * 32 + 5 * 32 + bx], 0);
+    }
+    const int ox = 50 + ms / 2 - 40, oy = 35, op = ms % 2;
+    EXPECT_EQ(x.input[x.at(t, op, oy, ox)], 1) << t;
+    EXPECT_EQ(x.fg[size_t(t) * 48 * 32 + size_t(oy) * 32 + ox], 1) << t;
+  }
+  size_t ones = 0, fg = 0;
+  for (auto v : x.input) ones += v;
+  for (auto v : x.fg) fg += v;
+  EXPECT_EQ(fg, 15u);  // one object event per step
+  EXPECT_EQ(ones, 15u + 0u);  // background columns 20..34 lie left of the crop (x < 40)
+}
+
+TEST(Sample, FlipsAndPolaritySwapRespectGeometry) {
+  const LabelledSequence seq = synthetic();
+  SampleOptions o = plain();
+  SampleSpec s;
+  s.t0 = 20000;
+  s.crop_x = 40;
+  s.crop_y = 5;
+  s.crop_w = 32;
+  s.crop_h = 48;
+  Sample a = extract_sample(seq, s, o);
+  s.flip_x = s.flip_y = s.swap_polarity = true;
+  Sample b = extract_sample(seq, s, o);
+  for (int t = 0; t < a.T; ++t)
+    for (int c = 0; c < 2; ++c)
+      for (int y = 0; y < a.H; ++y)
+        for (int x = 0; x < a.W; ++x) {
+          ASSERT_EQ(a.input[a.at(t, c, y, x)], b.input[b.at(t, 1 - c, a.H - 1 - y, a.W - 1 - x)]);
+          ASSERT_EQ(a.fg[(size_t(t) * a.H + y) * a.W + x],
+                    b.fg[(size_t(t) * a.H + (a.H - 1 - y)) * a.W + (a.W - 1 - x)]);
+        }
+}
+
+TEST(Sample, DropKeepsTheExpectedShareAndNoiseAddsBackgroundOnly) {
+  LabelledSequence seq;
+  seq.name = "dense";
+  seq.events.sensor = {64, 64};
+  for (int ms = 0; ms < 20; ++ms)
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x) seq.events.push_back(ms * 1000 + 10, uint16_t(x), uint16_t(y), 1, 0);
+  SampleOptions o = plain();
+  o.warmup_us = 0;
+  SampleSpec s;
+  s.crop_w = s.crop_h = 64;
+  s.keep[1] = 0.25;
+  s.seed = 7;
+  Sample x = extract_sample(seq, s, o);
+  double n = 0;
+  for (auto v : x.input) n += v;
+  EXPECT_NEAR(n / (10 * 64 * 64), 0.25, 0.02);
+  s.keep[1] = 0;  // every event dropped: only noise is left, none of it foreground
+  s.noise_hz = 1000;
+  x = extract_sample(seq, s, o);
+  n = 0;
+  for (auto v : x.input) n += v;
+  // Poisson mean 1000 Hz * 4096 px * 10 ms = 40960 draws, some colliding on one bin.
+  const double cells = 10.0 * 2 * 64 * 64, expect = cells * (1 - std::exp(-40960.0 / cells));
+  EXPECT_NEAR(n, expect, 4 * std::sqrt(expect));
+  for (auto v : x.fg) ASSERT_EQ(v, 0);
+}
+
+TEST(Sample, CentredDrawsContainTheObjectAndAreDeterministic) {
+  const LabelledSequence seq = synthetic();
+  SampleOptions o = plain();
+  o.centred_fraction = 1;
+  o.jitter = 4;
+  o.min_fg_pixels = 3;
+  std::vector<const LabelledSequence*> seqs{&seq};
+  for (int i = 0; i < 20; ++i) {
+    std::mt19937_64 r1(mix_seed(5, 9, uint64_t(i))), r2(mix_seed(5, 9, uint64_t(i)));
+    SampleSpec a = draw_sample(seqs, {1.0}, o, r1), b = draw_sample(seqs, {1.0}, o, r2);
+    EXPECT_EQ(a.t0, b.t0);
+    EXPECT_EQ(a.crop_x, b.crop_x);
+    EXPECT_EQ(a.seed, b.seed);
+    ASSERT_TRUE(a.centred);
+    Sample x = extract_sample(seq, a, o);
+    size_t fg = 0;
+    for (int t = x.warmup_steps; t < x.T; ++t)
+      for (int p = 0; p < x.H * x.W; ++p) fg += x.fg[size_t(t) * x.H * x.W + p];
+    EXPECT_GE(fg, 3u);
+  }
+  // A filter nothing can pass falls back to a random crop.
+  o.min_fg_pixels = 1000;
+  std::mt19937_64 r(1);
+  EXPECT_FALSE(draw_sample(seqs, {1.0}, o, r).centred);
+}
+
+TEST(Sample, BadCropIsAnError) {
+  const LabelledSequence seq = synthetic();
+  SampleSpec s;
+  s.crop_x = 90;
+  s.crop_w = s.crop_h = 32;
+  EXPECT_THROW(extract_sample(seq, s, plain()), Error);
+  SampleOptions o = plain();
+  o.crop = 128;  // larger than the 100 x 80 sensor
+  std::vector<const LabelledSequence*> seqs{&seq};
+  std::mt19937_64 r(1);
+  EXPECT_THROW(draw_sample(seqs, {1.0}, o, r), Error);
+}
+
+TEST(BatchLoader, BackgroundBatchesEqualBatchesMadeInPlaceFromAnyStartStep) {
+  const LabelledSequence seq = synthetic();
+  std::vector<const LabelledSequence*> seqs{&seq};
+  SampleOptions o = plain();
+  o.flip_x = 0.5;
+  o.noise_hz_max = 50;
+  BatchLoader loader(seqs, {1.0}, o, 3, 42, 5, 2, 2);
+  for (int64_t step = 5; step < 12; ++step) {
+    Batch b = loader.next();
+    Batch ref = BatchLoader::make(seqs, {1.0}, o, 3, 42, step);
+    ASSERT_EQ(b.step, step);
+    ASSERT_EQ(b.samples.size(), 3u);
+    for (size_t j = 0; j < 3; ++j) {
+      EXPECT_EQ(b.samples[j].input, ref.samples[j].input);
+      EXPECT_EQ(b.samples[j].fg, ref.samples[j].fg);
+    }
+  }
+}
+
+TEST(Dataset, LoadsASimulatorStyleFolderBySplitAndRefusesUnlabelledData) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "spikems_dataset_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  Recording rec;
+  rec.events = synthetic().events;
+  for (auto& l : rec.events.label) l = l ? 3 : 0;
+  write_recording((dir / "a.h5").string(), rec);
+  write_recording((dir / "b.h5").string(), rec);
+  {
+    std::ofstream m(dir / "manifest.json");
+    m << R"({"splits": {"train": ["b.h5", "a.h5"], "val": [], "test": ["a.h5"]}})";
+  }
+  auto files = sequence_files({dir.string(), "train"});
+  ASSERT_EQ(files.size(), 2u);
+  EXPECT_EQ(fs::path(files[0]).filename(), "a.h5");
+  EXPECT_THROW(sequence_files({dir.string(), "val"}), Error);      // empty split
+  EXPECT_THROW(sequence_files({dir.string(), "bogus"}), Error);    // unknown split
+  EXPECT_THROW(sequence_files({(dir / "none").string()}), Error);  // missing
+  LabelledSequence s = load_sequence(files[0]);
+  ASSERT_EQ(s.events.size(), 100u);
+  for (size_t i = 0; i < s.events.size(); ++i)
+    EXPECT_EQ(s.events.label[i], i % 2 ? 1 : 0);  // object id 3 -> 1
+  Recording bare;
+  bare.events = synthetic().events;
+  bare.events.label.clear();
+  write_recording((dir / "bare.h5").string(), bare);
+  EXPECT_THROW(load_sequence((dir / "bare.h5").string()), Error);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace spikems
