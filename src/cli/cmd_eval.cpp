@@ -7,18 +7,13 @@
 #include "cli/command.h"
 #include "core/eval/evaluation.h"
 #include "core/eval/window_list.h"
+#include "core/model/default_model.h"
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
 
 namespace {
 
 using namespace spikems;
-
-// The model scored when --model is not given. None ships yet; when one does, return its path
-// here (this is the only place that needs to change).
-std::string default_model() {
-  return "";
-}
 
 struct Args {
   std::string model, windows = "20,100", split = "test", out;
@@ -28,35 +23,10 @@ struct Args {
   double max_seconds = 0;
 };
 
-// The command as typed (for the results' provenance), from /proc where there is one.
-std::string command_line() {
-  std::ifstream f("/proc/self/cmdline", std::ios::binary);
-  std::string raw((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  std::string out, arg;
-  auto flush = [&] {
-    const bool plain = !arg.empty() && arg.find_first_of(" \t'\"\\$`") == std::string::npos;
-    std::string q = plain ? arg : "'";
-    if (!plain) {
-      for (char c : arg) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-      q += "'";
-    }
-    out += (out.empty() ? "" : " ") + q;
-    arg.clear();
-  };
-  for (char c : raw)
-    if (c == 0)
-      flush();
-    else
-      arg += c;
-  return out.empty() ? "spikems eval" : out;
-}
-
 void run(const Args& a) {
   install_interrupt_flag();
   EvalOptions o;
-  o.model_path = a.model.empty() ? default_model() : a.model;
-  if (o.model_path.empty())
-    fail("spikems eval", "", "no model given: name the model file with --model FILE");
+  o.model_path = a.model.empty() ? default_model_or_fail() : a.model;
   if (a.split != "train" && a.split != "val" && a.split != "test" && a.split != "all")
     fail("--split", "", "'" + a.split + "' is not a split: use train, val, test or all");
   if (a.max_seconds < 0) fail("--max-seconds", "", "must be positive");
@@ -67,7 +37,7 @@ void run(const Args& a) {
   o.iir = a.iir;
   o.max_seconds = a.max_seconds;
   o.progress = !a.quiet;
-  o.command_line = command_line();
+  o.command_line = cli::invoked_command();
   const EvalResults r = evaluate(o);
   if (!a.out.empty()) write_results(r, a.out);
   std::fputs(results_table(r).c_str(), stdout);

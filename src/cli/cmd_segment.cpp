@@ -15,6 +15,7 @@
 #include "core/eval/metrics.h"
 #include "core/eval/window_scorer.h"
 #include "core/events/io.h"
+#include "core/model/default_model.h"
 #include "core/model/model_file.h"
 #include "core/runtime/kalman_tracker.h"
 #include "core/runtime/segmenter.h"
@@ -170,7 +171,7 @@ void run(const Args& a) {
   // Ctrl-C sets a flag (a second one exits at once); the loop below then stops reading and
   // commits complete outputs for the events read so far.
   install_interrupt_flag();
-  ModelSpec model = load_model(a.model);
+  ModelSpec model = load_model(a.model.empty() ? default_model_or_fail() : a.model);
   if (a.iir) model = with_iir_neurons(std::move(model), a.model);
   ReadOptions ro;
   ro.sort = a.read.sort;
@@ -319,7 +320,9 @@ void add(CLI::App& app) {
       "An event of step t is foreground when the network's output spikes at its pixel within "
       "steps t..t+L+tolerance (L = one step per layer). Text output: one line 't_us x y p "
       "label' per event. See docs/runtime.md.");
-  cmd->add_option("--model", a.model, "Model file (.safetensors, spikems format)")->required();
+  cmd->add_option("--model", a.model,
+                  "Model file (.safetensors, spikems format); default: the shipped model "
+                  "(models/spikems-default.safetensors, or $SPIKEMS_MODEL)");
   cmd->add_option("--input", a.input, "Event file (any format), or - for text 't x y p' on stdin")
       ->required();
   cmd->add_option("--out", a.out,

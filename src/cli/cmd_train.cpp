@@ -29,8 +29,9 @@ void run(const Args& a) {
   TrainConfig cfg;
   if (!a.resume.empty()) {
     if (!a.config.empty())
-      spikems::fail("spikems train", "", "--resume takes the run's own config.json; "
-                                         "change keys with --set instead of --config");
+      spikems::fail("spikems train", "",
+                    "--resume takes the run's own config.json; "
+                    "change keys with --set instead of --config");
     ro.out_dir = a.resume;
     ro.resume = true;
     cfg = load_run_config(a.resume, overrides);
@@ -41,10 +42,10 @@ void run(const Args& a) {
     cfg = load_train_config(a.config, overrides);
   }
   TrainResult r = run_training(cfg, ro);
-  std::printf("trained %lld steps in %.0f s; best validation IoU %.1f %%; model: %s/model.safetensors"
-              " (best: %s/best.safetensors)\n",
-              (long long)r.steps, r.wall_seconds, r.best_val_iou, ro.out_dir.c_str(),
-              ro.out_dir.c_str());
+  std::printf(
+      "trained %lld steps in %.0f s; best validation IoU %.1f %%; model: %s/model.safetensors"
+      " (best: %s/best.safetensors)\n",
+      (long long)r.steps, r.wall_seconds, r.best_val_iou, ro.out_dir.c_str(), ro.out_dir.c_str());
 }
 
 void add(CLI::App& app) {
@@ -73,12 +74,8 @@ void add(CLI::App& app) {
       "--set optim.lr=0.002 --steps 500\n"
       "The run folder gets config.json, log.jsonl, curves.svg, checkpoint.pt, model.safetensors "
       "and best.safetensors. Every key: docs/training.md.");
-  cmd->callback([a, cmd] {
-    a->command = "spikems train";
-    for (const auto& o : cmd->get_options())
-      if (o->count() > 0 && o->get_name() != "--help")
-        for (const auto& r : o->results())
-          a->command += " " + o->get_name() + (r.empty() ? "" : " " + r);
+  cmd->callback([a] {
+    a->command = spikems::cli::invoked_command();
     run(*a);
   });
 }

@@ -35,6 +35,9 @@ struct ReadFlags {
 };
 void add_read_flags(CLI::App* cmd, ReadFlags& f);
 
+// The command line as typed (shell-quoted, from /proc/self/cmdline), for provenance records.
+std::string invoked_command();
+
 }  // namespace spikems::cli
 
 #define SPIKEMS_COMMAND(name, order, fn) \

@@ -1,6 +1,7 @@
 // The `spikems` executable: one program, one subcommand per task (see `spikems --help`).
 #include <algorithm>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 
 #include "cli/command.h"
@@ -22,6 +23,29 @@ void add_read_flags(CLI::App* cmd, ReadFlags& f) {
       ->check(CLI::Range(1, 65535));
   cmd->add_option("--height", f.height, "Sensor height where the file does not say")
       ->check(CLI::Range(1, 65535));
+}
+
+// The command as typed (for the results' provenance), from /proc where there is one.
+std::string invoked_command() {
+  std::ifstream f("/proc/self/cmdline", std::ios::binary);
+  std::string raw((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::string out, arg;
+  auto flush = [&] {
+    const bool plain = !arg.empty() && arg.find_first_of(" \t'\"\\$`") == std::string::npos;
+    std::string q = plain ? arg : "'";
+    if (!plain) {
+      for (char c : arg) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+      q += "'";
+    }
+    out += (out.empty() ? "" : " ") + q;
+    arg.clear();
+  };
+  for (char c : raw)
+    if (c == 0)
+      flush();
+    else
+      arg += c;
+  return out.empty() ? "spikems" : out;
 }
 
 }  // namespace spikems::cli

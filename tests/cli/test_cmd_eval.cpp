@@ -200,8 +200,9 @@ TEST_F(EvalCli, BadInputStopsWithAClearMessage) {
   std::ofstream(dir_ + "/bad.safetensors") << "not a model";
   EXPECT_EQ(run_command(nomodel + " --model " + dir_ + "/bad.safetensors", &out), 1);
   EXPECT_NE(out.find("bad.safetensors"), std::string::npos) << out;
-  EXPECT_EQ(run_command(nomodel, &out), 1);
-  EXPECT_NE(out.find("--model"), std::string::npos) << out;
+  // No --model and no shipped model where SPIKEMS_MODEL points: a message saying what to do.
+  EXPECT_EQ(run_command("SPIKEMS_MODEL=" + dir_ + "/none.safetensors " + nomodel, &out), 1);
+  EXPECT_NE(out.find("give --model FILE"), std::string::npos) << out;
   // A missing data path.
   EXPECT_EQ(run_command(eval("--data " + dir_ + "/nowhere --out " + o), &out), 1);
   EXPECT_NE(out.find(dir_ + "/nowhere"), std::string::npos) << out;

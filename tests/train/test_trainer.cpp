@@ -36,7 +36,8 @@ const std::string& tiny_data() {
     std::string out;
     int rc = run_command(spikems_binary() +
                              " simulate --preset tiny --sequences 6 --duration 0.3s --seed 11 "
-                             "--threads 1 --no-progress --out " + d,
+                             "--threads 1 --no-progress --out " +
+                             d,
                          &out);
     EXPECT_EQ(rc, 0) << out;
     test::scratch_registry.dirs.push_back(d);
@@ -72,33 +73,55 @@ std::vector<nlohmann::json> read_log(const std::string& dir, const std::string& 
   return out;
 }
 
-std::string config_path() { return test::source_dir() + "/configs/train/default.toml"; }
+std::string config_path() {
+  return test::source_dir() + "/configs/train/default.toml";
+}
 
 TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
   const std::string dir = scratch_dir() + "/run";
-  auto ov = tiny_overrides(60);
-  ov.push_back("run.val_every=60");
+  // Scored on windows of its own training data: what this checks is that the whole loop
+  // (data, loss, optimizer, validation, files) learns; generalisation is the default model's
+  // job (docs/results.md). One short sequence, no augmentation, L_bce alone, a higher rate.
+  std::string out;
+  const std::string data = scratch_dir() + "/data";
+  ASSERT_EQ(run_command(spikems_binary() +
+                            " simulate --preset tiny --sequences 1 --duration 0.2s --seed 5 "
+                            "--threads 1 --no-progress --out " +
+                            data,
+                        &out),
+            0)
+      << out;
+  auto ov = tiny_overrides(100);
+  const std::string one = "[{path=\"" + data + "/seq_0000.h5\"}]";
+  ov.push_back("data.train=" + one);
+  ov.push_back("data.val=" + one);
+  for (const char* k :
+       {"flip_x", "flip_y", "polarity_swap", "drop_max", "threshold_jitter", "noise_hz_max"})
+    ov.push_back(std::string("sample.") + k + "=0.0");
+  for (const char* k : {"sample.centred_fraction=1.0", "optim.lr=0.003", "loss.kind=bce",
+                        "loss.floor_weight=0.0", "loss.activity_weight=0.0", "run.val_every=100"})
+    ov.push_back(k);
   TrainConfig cfg = load_train_config(config_path(), ov);
   TrainRunOptions ro;
   ro.out_dir = dir;
   ro.progress = false;
   TrainResult r = run_training(cfg, ro);
-  EXPECT_EQ(r.steps, 60);
+  EXPECT_EQ(r.steps, 100);
   auto train = read_log(dir, "train");
-  ASSERT_EQ(train.size(), 60u);
+  ASSERT_EQ(train.size(), 100u);
   double first = 0, last = 0;
   for (int i = 0; i < 10; ++i) {
     first += train[size_t(i)]["loss"].get<double>();
-    last += train[size_t(50 + i)]["loss"].get<double>();
+    last += train[size_t(90 + i)]["loss"].get<double>();
   }
-  EXPECT_LT(last, 0.8 * first) << "mean loss of steps 1-10 vs 51-60";
+  EXPECT_LT(last, 0.7 * first) << "mean loss of steps 1-10 vs 91-100";
   auto val = read_log(dir, "val");
   ASSERT_EQ(val.size(), 2u);  // before training (step 0) and at the end
   EXPECT_EQ(val[0]["step"], 0);
-  EXPECT_GT(val[1]["iou"].get<double>(), val[0]["iou"].get<double>() + 5.0);
+  EXPECT_GT(val[1]["iou"].get<double>(), val[0]["iou"].get<double>() + 8.0);
   // The model file every command reads, with its provenance.
   ModelSpec m = load_model(dir + "/model.safetensors");
-  EXPECT_EQ(m.training["steps"], 60);
+  EXPECT_EQ(m.training["steps"], 100);
   EXPECT_EQ(m.layers.size(), 6u);
   EXPECT_EQ(m.layers[0].neuron.discretisation, Discretisation::IIR);
   EXPECT_TRUE(fs::exists(dir + "/best.safetensors"));
@@ -196,10 +219,10 @@ TEST(Trainer, BadConfigsNameTheKey) {
   const std::string dir = scratch_dir();
   { std::ofstream(dir + "/bad.toml") << "[optim]\nlr = = 3\n"; }
   std::string out;
-  EXPECT_EQ(run_command(spikems_binary() + " train --config " + dir + "/bad.toml --out " + dir +
-                            "/r 2>&1",
-                        &out),
-            1);
+  EXPECT_EQ(
+      run_command(
+          spikems_binary() + " train --config " + dir + "/bad.toml --out " + dir + "/r 2>&1", &out),
+      1);
   EXPECT_NE(out.find("bad.toml: at line 2"), std::string::npos) << out;
   EXPECT_EQ(run_command(spikems_binary() + " train --config " + config_path() + " --out " + dir +
                             "/r --set data.train='[\"" + dir + "/none\"]' 2>&1",
@@ -207,13 +230,13 @@ TEST(Trainer, BadConfigsNameTheKey) {
             1);
   EXPECT_NE(out.find("none: no such file or folder"), std::string::npos) << out;
   EXPECT_EQ(run_command(spikems_binary() + " train --resume " + dir + " 2>&1", &out), 1);
-  EXPECT_NE(out.find("no checkpoint to resume from"), std::string::npos) << out;
+  EXPECT_NE(out.find("a `spikems train` run folder?"), std::string::npos) << out;
 }
 
 TEST(Trainer, NonFiniteLossStopsNamingTheStep) {
   const std::string dir = scratch_dir() + "/run";
   auto ov = tiny_overrides(10);
-  ov.push_back("loss.alpha=1e30");  // float32 overflow: softplus(inf) on moving pixels
+  ov.push_back("loss.alpha=1e39");  // float32 overflow: inf (and 0 * inf) in L_bce
   ov.push_back("loss.kind=bce");
   TrainConfig cfg = load_train_config(config_path(), ov);
   TrainRunOptions ro;
@@ -223,8 +246,9 @@ TEST(Trainer, NonFiniteLossStopsNamingTheStep) {
     run_training(cfg, ro);
     FAIL() << "no error";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("step 1: the loss is infinite"), std::string::npos)
-        << e.what();
+    const std::string m = e.what();
+    EXPECT_NE(m.find("step 1: the loss is "), std::string::npos) << m;
+    EXPECT_NE(m.find("The last good checkpoint"), std::string::npos) << m;
   }
 }
 

@@ -17,7 +17,9 @@ uint64_t splitmix64(uint64_t x) {
 }
 
 // Uniform in [0, 1) from a 64-bit hash.
-double unit(uint64_t h) { return double(h >> 11) * (1.0 / 9007199254740992.0); }
+double unit(uint64_t h) {
+  return double(h >> 11) * (1.0 / 9007199254740992.0);
+}
 
 double uniform(std::mt19937_64& rng, double lo, double hi) {
   return std::uniform_real_distribution<double>(lo, hi)(rng);
@@ -36,7 +38,9 @@ uint64_t mix_seed(uint64_t seed, uint64_t stream, uint64_t index) {
 int sample_steps(const SampleOptions& o) {
   return int((o.warmup_us + o.step_us - 1) / o.step_us + (o.window_us + o.step_us - 1) / o.step_us);
 }
-int warmup_steps(const SampleOptions& o) { return int((o.warmup_us + o.step_us - 1) / o.step_us); }
+int warmup_steps(const SampleOptions& o) {
+  return int((o.warmup_us + o.step_us - 1) / o.step_us);
+}
 
 Sample extract_sample(const LabelledSequence& seq, const SampleSpec& s, const SampleOptions& o) {
   const EventStream& ev = seq.events;

@@ -45,15 +45,13 @@ struct Sample {
   std::vector<uint8_t> input;  // [T, 2, H, W] binary spikes, channel = polarity (0 OFF, 1 ON)
   std::vector<uint8_t> fg;     // [T, H, W] 1 where a moving-object event fell in that step
   bool centred = false;        // crop centred on a moving object
-  size_t at(int t, int c, int y, int x) const {
-    return ((size_t(t) * 2 + c) * H + y) * W + x;
-  }
+  size_t at(int t, int c, int y, int x) const { return ((size_t(t) * 2 + c) * H + y) * W + x; }
 };
 
 // Where and how a sample is cut (drawn by draw_sample, or given by hand in tests).
 struct SampleSpec {
   size_t sequence = 0;
-  int64_t t0 = 0;        // start of the warm-up (µs)
+  int64_t t0 = 0;  // start of the warm-up (µs)
   int crop_x = 0, crop_y = 0, crop_w = 0, crop_h = 0;
   bool flip_x = false, flip_y = false, swap_polarity = false;
   double keep[2] = {1, 1};  // per polarity (OFF, ON): probability an event is kept

@@ -77,8 +77,7 @@ LabelledSequence load_sequence(const std::string& path, int mask_dilation) {
 std::vector<LabelledSequence> load_sequences(const DatasetSource& src, bool progress) {
   const auto files = sequence_files(src);
   std::vector<LabelledSequence> out;
-  ProgressBar bar("load " + fs::path(src.path).filename().string(), files.size(), "seq",
-                  progress);
+  ProgressBar bar("load " + fs::path(src.path).filename().string(), files.size(), "seq", progress);
   for (const auto& f : files) {
     out.push_back(load_sequence(f, src.mask_dilation));
     bar.add(1);

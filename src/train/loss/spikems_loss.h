@@ -34,8 +34,8 @@ struct LossOptions {
   // Class-balanced L_bce: the mean over foreground pixels plus the mean over background pixels
   // (each half weighted 1/2), so rare moving objects weigh as much as the background.
   bool balanced = false;
-  double ts = 1.0;                   // time step (ms)
-  double tau = 2.0;                  // van Rossum kernel time constant (ms)
+  double ts = 1.0;   // time step (ms)
+  double tau = 2.0;  // van Rossum kernel time constant (ms)
   TemporalKernel kernel = TemporalKernel::alpha(2.0, 1.0, 1.0);  // eps for L_spike
 };
 

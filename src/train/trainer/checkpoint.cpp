@@ -48,8 +48,9 @@ CheckpointState load_checkpoint(const std::string& path, SpikeMSNetwork& net,
     ar.read("wall_seconds", t);
     st.wall_seconds = t.item<double>();
   } catch (const c10::Error& e) {
-    fail(path, "", "not a usable spikems checkpoint for this network: " +
-                       std::string(e.what_without_backtrace()));
+    fail(path, "",
+         "not a usable spikems checkpoint for this network: " +
+             std::string(e.what_without_backtrace()));
   }
   return st;
 }

@@ -14,10 +14,10 @@
 namespace spikems::train {
 
 struct CheckpointState {
-  int64_t step = 0;            // steps completed
-  double best_val_iou = -1;    // best validation IoU (%) so far, -1: none yet
+  int64_t step = 0;          // steps completed
+  double best_val_iou = -1;  // best validation IoU (%) so far, -1: none yet
   int64_t best_step = -1;
-  double wall_seconds = 0;     // training time spent so far (over every session)
+  double wall_seconds = 0;  // training time spent so far (over every session)
 };
 
 void save_checkpoint(const std::string& path, SpikeMSNetwork& net, torch::optim::Optimizer& opt,

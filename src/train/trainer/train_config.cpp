@@ -1,8 +1,8 @@
 #include "train/trainer/train_config.h"
 
+#include <toml++/toml.h>
 #include <set>
 #include <sstream>
-#include <toml++/toml.h>
 
 #include "core/util/error.h"
 
@@ -111,8 +111,10 @@ class Binder {
             else if (k == "mask_dilation" && x.is_number_integer())
               s.mask_dilation = x.get<int>();
             else
-              bad(section, key, "entry key \"" + k + "\" unknown or of the wrong type (path, "
-                                "split, weight, mask_dilation)");
+              bad(section, key,
+                  "entry key \"" + k +
+                      "\" unknown or of the wrong type (path, "
+                      "split, weight, mask_dilation)");
           }
         } else {
           bad(section, key, "expected a list of {path, split, weight} tables");
@@ -133,8 +135,10 @@ class Binder {
   // Every key of the input must have been bound.
   void check_unknown() const {
     for (auto& [sec, t] : j_.items()) {
-      if (!t.is_object()) fail(source_, sec, "unknown key (sections: model, data, sample, loss, "
-                                             "optim, run; see docs/training.md)");
+      if (!t.is_object())
+        fail(source_, sec,
+             "unknown key (sections: model, data, sample, loss, "
+             "optim, run; see docs/training.md)");
       for (auto& [k, v] : t.items())
         if (!used_.count(sec + "." + k))
           fail(source_, sec + "." + k, "unknown key (see docs/training.md for every key)");
@@ -254,11 +258,14 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   s.step_us = int64_t(std::llround(step_ms * 1000));
   s.window_us = int64_t(std::llround(window_ms * 1000));
   s.warmup_us = int64_t(std::llround(warmup_ms * 1000));
-  if (s.crop < 0 || (s.crop > 0 && s.crop < 16)) b.bad("sample", "crop", "0 (whole sensor) or >= 16");
+  if (s.crop < 0 || (s.crop > 0 && s.crop < 16))
+    b.bad("sample", "crop", "0 (whole sensor) or >= 16");
   if (s.centred_fraction < 0 || s.centred_fraction > 1)
     b.bad("sample", "centred_fraction", "must lie in [0, 1]");
-  for (auto [k, v] : {std::pair{"flip_x", s.flip_x}, {"flip_y", s.flip_y},
-                      {"polarity_swap", s.polarity_swap}, {"drop_max", s.drop_max}})
+  for (auto [k, v] : {std::pair{"flip_x", s.flip_x},
+                      {"flip_y", s.flip_y},
+                      {"polarity_swap", s.polarity_swap},
+                      {"drop_max", s.drop_max}})
     if (v < 0 || v > 1) b.bad("sample", k, "must lie in [0, 1]");
   if (s.threshold_jitter < 0) b.bad("sample", "threshold_jitter", "must not be negative");
   if (s.noise_hz_max < 0) b.bad("sample", "noise_hz_max", "must not be negative");
@@ -277,8 +284,10 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.step_every < 1) b.bad("optim", "step_every", "must be at least 1");
   one_of(b, "run", "device", c.device, {"cpu", "cuda"});
   if (c.threads < 0) b.bad("run", "threads", "must not be negative");
-  for (auto [k, v] : {std::pair{"log_every", c.log_every}, {"val_every", c.val_every},
-                      {"checkpoint_every", c.checkpoint_every}, {"prefetch", c.prefetch}})
+  for (auto [k, v] : {std::pair{"log_every", c.log_every},
+                      {"val_every", c.val_every},
+                      {"checkpoint_every", c.checkpoint_every},
+                      {"prefetch", c.prefetch}})
     if (v < 1) b.bad("run", k, "must be at least 1");
   if (c.val_samples < 0) b.bad("run", "val_samples", "must not be negative");
   c.source = b.resolved();

@@ -14,26 +14,26 @@ namespace spikems::train {
 
 struct TrainConfig {
   // [model]
-  bool padded = true;               // padding 1: a multiple-of-8 input keeps its size
-  std::string neurons = "iir";      // iir | fir
+  bool padded = true;                 // padding 1: a multiple-of-8 input keeps its size
+  std::string neurons = "iir";        // iir | fir
   std::string surrogate = "spikems";  // spikems | slayer
-  std::string backward = "slayer";  // slayer | exact
-  bool delays = false;              // learnable axonal delays
-  std::string init = "data";        // data | <path of a model file to start from>
+  std::string backward = "slayer";    // slayer | exact
+  bool delays = false;                // learnable axonal delays
+  std::string init = "data";          // data | <path of a model file to start from>
   std::vector<double> init_rates = {0.03, 0.03, 0.03, 0.03, 0.03, 0.02};  // data init targets
   // [data]
   std::vector<DatasetSource> train, val;
   // [sample]
   SampleOptions sample;
   // [loss]
-  std::string loss = "both";        // bce | spike | both
-  double lambda = 0.1;              // weight of L_spike
+  std::string loss = "both";           // bce | spike | both
+  double lambda = 0.1;                 // weight of L_spike
   std::string projection = "sigmoid";  // sigmoid | exponential
   double alpha = 4.0, beta = 0.5, kappa = 1.0;
   bool all_pixels = true;
   double pos_weight = 1.0;
   bool balanced = true;
-  double activity_weight = 0.5;     // times the summed per-layer firing rates
+  double activity_weight = 0.5;  // times the summed per-layer firing rates
   // Hidden layers (all but the output) firing less than rate_floor spikes per neuron per step
   // pay floor_weight * ((rate_floor - rate) / rate_floor)^2: a layer that falls silent passes
   // no surrogate gradient and never recovers (Zenke & Vogels 2021 use such lower bounds).
@@ -45,11 +45,11 @@ struct TrainConfig {
   int warmup_steps = 50, step_every = 500;
   double step_gamma = 0.5;
   int batch = 8, steps = 2000;
-  double clip = 1.0;                // global gradient-norm clip (0: off)
+  double clip = 1.0;  // global gradient-norm clip (0: off)
   // [run]
   uint64_t seed = 1;
-  int threads = 0;                  // 0: all cores
-  std::string device = "cpu";       // cpu | cuda
+  int threads = 0;             // 0: all cores
+  std::string device = "cpu";  // cpu | cuda
   int log_every = 10, val_every = 100, checkpoint_every = 25, val_samples = 64, prefetch = 4;
 
   nlohmann::json source;  // the resolved configuration (every key), as JSON

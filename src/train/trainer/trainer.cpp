@@ -30,8 +30,8 @@ ModelSpec initial_spec(const TrainConfig& c) {
   if (c.init != "data") {
     spec = load_model(c.init);  // fine-tuning: geometry and neurons from the file
   } else {
-    spec = spikems_architecture(c.padded, c.neurons == "iir" ? Discretisation::IIR
-                                                             : Discretisation::FIR);
+    spec = spikems_architecture(c.padded,
+                                c.neurons == "iir" ? Discretisation::IIR : Discretisation::FIR);
     for (auto& l : spec.layers)
       l.neuron.surrogate = c.surrogate == "slayer" ? SurrogateForm::Slayer : SurrogateForm::SpikeMS;
   }
@@ -138,9 +138,9 @@ struct Curves {
       pv.y_max = 100;
       all = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"640\" height=\"700\">" +
             std::string("<g>") + svg + "</g><g transform=\"translate(0,320)\">" +
-            svg_line_plot({{"IoU", val_step, val_iou, {}, ""},
-                           {"detection rate", val_step, val_det, {}, ""}},
-                          pv) +
+            svg_line_plot(
+                {{"IoU", val_step, val_iou, {}, ""}, {"detection rate", val_step, val_det, {}, ""}},
+                pv) +
             "</g></svg>";
     }
     write_svg(path, all);
@@ -196,8 +196,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
   if (ro.resume && !fs::exists(ckpt_path))
     fail(ckpt_path, "", "no checkpoint to resume from (has the run written one yet?)");
   if (!ro.resume && fs::exists(ckpt_path))
-    fail(ro.out_dir, "",
-         "holds a run already: continue it with --resume, or choose another --out");
+    fail(ro.out_dir, "", "holds a run already: continue it with --resume, or choose another --out");
   fs::create_directories(dir);
   if (c.device == "cuda" && !torch::cuda::is_available())
     fail("run.device", "", "cuda asked for, but this LibTorch has no CUDA device");
@@ -232,21 +231,21 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
   SpikeMSNetwork net(spec, grad);
   if (c.delays)
     for (size_t k = 0; k < net->size(); ++k) net->layer(k)->enable_delay(true);
-  torch::optim::Adam opt(net->parameters(), torch::optim::AdamOptions(c.lr)
-                                                .amsgrad(c.amsgrad)
-                                                .weight_decay(c.weight_decay));
+  torch::optim::Adam opt(
+      net->parameters(),
+      torch::optim::AdamOptions(c.lr).amsgrad(c.amsgrad).weight_decay(c.weight_decay));
   CheckpointState st;
   const std::string log_path = (dir / "log.jsonl").string();
   Curves curves;
+  // The run's config.json always holds the configuration in force (a resume's --set too).
+  write_file_atomic((dir / "config.json").string(), c.source.dump(2) + "\n");
   if (ro.resume) {
     st = load_checkpoint(ckpt_path, net, opt);
     curves = trim_log(log_path, st.step);
   } else {
-    write_file_atomic((dir / "config.json").string(), c.source.dump(2) + "\n");
     write_file_atomic(log_path, "");
     if (c.init == "data") {
-      Batch b = BatchLoader::make(train_ptr, weights, c.sample, std::max(4, c.batch), c.seed,
-                                  -1);
+      Batch b = BatchLoader::make(train_ptr, weights, c.sample, std::max(4, c.batch), c.seed, -1);
       BatchTensors bt = to_tensors(b.samples, ts, torch::kCPU);
       auto r = init_weights_from_data(net, bt.input, c.init_rates, c.seed);
       if (ro.progress) {
@@ -270,10 +269,10 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
             {"device", c.device},
             {"command", ro.command}});
 
-  const std::vector<Sample> val = val_ptr.empty() || c.val_samples == 0
-                                      ? std::vector<Sample>{}
-                                      : validation_samples(val_ptr, c.sample, c.val_samples,
-                                                           c.seed);
+  const std::vector<Sample> val =
+      val_ptr.empty() || c.val_samples == 0
+          ? std::vector<Sample>{}
+          : validation_samples(val_ptr, c.sample, c.val_samples, c.seed);
   const LossOptions lo = loss_options(c, ts);
 
   auto save_model_file = [&](const std::string& path) {
@@ -338,16 +337,16 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
     Batch b = loader.next();
     BatchTensors bt = to_tensors(b.samples, ts, device);
     const double lr = lr_at(c, st.step);
-    for (auto& g : opt.param_groups())
-      static_cast<torch::optim::AdamOptions&>(g.options()).lr(lr);
+    for (auto& g : opt.param_groups()) static_cast<torch::optim::AdamOptions&>(g.options()).lr(lr);
     opt.zero_grad();
     StepOutput o = forward_loss(net, bt, c, lo, ts);
     const double loss = o.total.item<double>();
     if (!std::isfinite(loss))
       fail(ro.out_dir, "step " + std::to_string(st.step + 1),
            "the loss is " + std::string(std::isnan(loss) ? "NaN" : "infinite") +
-               "; stopped. The last good checkpoint (step " + std::to_string(st.step -
-               st.step % c.checkpoint_every) + ") is kept: lower optim.lr or raise optim.clip, "
+               "; stopped. The last good checkpoint (step " +
+               std::to_string(st.step - st.step % c.checkpoint_every) +
+               ") is kept: lower optim.lr or raise optim.clip, "
                "then --resume");
     o.total.backward();
     if (c.clip > 0) torch::nn::utils::clip_grad_norm_(net->parameters(), c.clip);
@@ -365,8 +364,8 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
     for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += o.rates[k];
     ++in_sum;
     st.wall_seconds =
-        wall_before + std::chrono::duration<double>(std::chrono::steady_clock::now() - seg_start)
-                          .count();
+        wall_before +
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - seg_start).count();
     char status[160];
     std::snprintf(status, sizeof status, "step %lld loss %.4f IoU %.1f%%", (long long)st.step,
                   ema_loss, 100 * std::max(0.0, ema_iou));
@@ -385,8 +384,8 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
                 {"detection_rate", 100 * train_ws.detection_rate()},
                 {"lr", lr},
                 {"rates", rates_json(r)},
-                {"samples_per_s", double(in_sum * c.batch) /
-                                      std::max(1e-9, st.wall_seconds - res.wall_seconds)},
+                {"samples_per_s",
+                 double(in_sum * c.batch) / std::max(1e-9, st.wall_seconds - res.wall_seconds)},
                 {"wall_s", st.wall_seconds}});
       res.wall_seconds = st.wall_seconds;
       sum_loss = sum_bce = sum_spike = sum_act = 0;
@@ -407,8 +406,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
         std::fprintf(stderr, "%sval step %lld: IoU %s %% (best %s at %lld), detection %s %%\n",
                      isatty(2) ? "\n" : "", (long long)st.step,
                      percent(v["iou"].get<double>()).c_str(), percent(st.best_val_iou).c_str(),
-                     (long long)st.best_step,
-                     percent(v["detection_rate"].get<double>()).c_str());
+                     (long long)st.best_step, percent(v["detection_rate"].get<double>()).c_str());
     }
     if (st.step % c.checkpoint_every == 0 || st.step == c.steps) checkpoint();
     res.final_loss = loss;
@@ -422,8 +420,8 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
             {"wall_s", st.wall_seconds}});
   res.steps = st.step;
   res.best_val_iou = st.best_val_iou;
-  res.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start)
-                         .count();
+  res.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return res;
 }
 

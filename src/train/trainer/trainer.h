@@ -17,9 +17,9 @@ namespace spikems::train {
 
 struct TrainRunOptions {
   std::string out_dir;
-  bool resume = false;    // continue the run in out_dir from its checkpoint
-  bool progress = true;   // progress bar on stderr
-  std::string command;    // the command line, for the model's provenance
+  bool resume = false;   // continue the run in out_dir from its checkpoint
+  bool progress = true;  // progress bar on stderr
+  std::string command;   // the command line, for the model's provenance
 };
 
 struct TrainResult {

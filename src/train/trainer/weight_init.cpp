@@ -18,8 +18,8 @@ std::vector<double> init_weights_from_data(SpikeMSNetwork& net, const torch::Ten
   for (size_t k = 0; k < net->size(); ++k) {
     SpikingLayer& l = net->layer(k);
     const auto sz = l->weight.sizes();
-    const double fan_in = double(sz[1 - (l->to_spec().kind == LayerKind::ConvTranspose)]) *
-                          double(sz[2] * sz[3]);
+    const double fan_in =
+        double(sz[1 - (l->to_spec().kind == LayerKind::ConvTranspose)]) * double(sz[2] * sz[3]);
     torch::Tensor w0 = at::normal(0.0, 1.0 / std::sqrt(fan_in), l->weight.sizes(), gen);
     const double in_scale = x.max().item<double>();  // 1/Ts: rates are per step below
     auto rate_at = [&](double g) {

@@ -66,7 +66,7 @@ TEST(Sample, BinsEventsAndForegroundIntoTheCrop) {
   size_t ones = 0, fg = 0;
   for (auto v : x.input) ones += v;
   for (auto v : x.fg) fg += v;
-  EXPECT_EQ(fg, 15u);  // one object event per step
+  EXPECT_EQ(fg, 15u);         // one object event per step
   EXPECT_EQ(ones, 15u + 0u);  // background columns 20..34 lie left of the crop (x < 40)
 }
 
@@ -98,7 +98,8 @@ TEST(Sample, DropKeepsTheExpectedShareAndNoiseAddsBackgroundOnly) {
   seq.events.sensor = {64, 64};
   for (int ms = 0; ms < 20; ++ms)
     for (int y = 0; y < 64; ++y)
-      for (int x = 0; x < 64; ++x) seq.events.push_back(ms * 1000 + 10, uint16_t(x), uint16_t(y), 1, 0);
+      for (int x = 0; x < 64; ++x)
+        seq.events.push_back(ms * 1000 + 10, uint16_t(x), uint16_t(y), 1, 0);
   SampleOptions o = plain();
   o.warmup_us = 0;
   SampleSpec s;

@@ -62,6 +62,30 @@ std::vector<std::vector<long>> read_rows(const std::string& path) {
   return rows;
 }
 
+// Without --model, segment takes the shipped model: $SPIKEMS_MODEL when set (the same labels
+// as naming the file), and says what to do when it is not there.
+TEST(SegmentCli, DefaultModelComesFromSpikemsModel) {
+  std::string d = scratch_dir();
+  std::string model = write_pass_off_model(d), ev = write_events(d);
+  std::string out;
+  ASSERT_EQ(run_command(spikems_binary() + " segment --quiet --model " + model + " --input " + ev +
+                            " --out " + d + "/named.txt",
+                        &out),
+            0)
+      << out;
+  ASSERT_EQ(run_command("SPIKEMS_MODEL=" + model + " " + spikems_binary() +
+                            " segment --quiet --input " + ev + " --out " + d + "/default.txt",
+                        &out),
+            0)
+      << out;
+  EXPECT_EQ(read_rows(d + "/named.txt"), read_rows(d + "/default.txt"));
+  EXPECT_EQ(run_command("SPIKEMS_MODEL=" + d + "/none.safetensors " + spikems_binary() +
+                            " segment --quiet --input " + ev + " --out " + d + "/x.txt 2>&1",
+                        &out),
+            1);
+  EXPECT_NE(out.find("give --model FILE, or set SPIKEMS_MODEL"), std::string::npos) << out;
+}
+
 TEST(SegmentCli, LabelsMasksBoxesAndStats) {
   std::string d = scratch_dir();
   std::string model = write_pass_off_model(d), ev = write_events(d);

@@ -6,12 +6,13 @@
 //                 dict whose 'frames' list gives each frame's 'ts' and 'gt_frame'), and
 //                 img/depth_mask_<id>.png (16-bit, 3 channels; BGR channel 2 = id x 1000).
 // Mask frame times of the npz live only in `meta`. They come from the first that works of:
-// `meta` unpickled by pickle.h, which accepts plain data only ("mask_times": "meta"); a meta.txt
+// `meta` unpickled by pickle.h, which accepts plain data and numpy's object-array wrapper that
+// np.savez(meta=dict) writes, without running anything ("mask_times": "meta"); a meta.txt
 // next to the npz (same folder, or a folder named like the npz without its extension;
 // "meta.txt"); else frames evenly spaced over the events, frame i at
 // t_first + (i + 0.5) * (t_last - t_first) / F ("uniform-estimate": good enough for display, not
-// for scoring). When `meta` cannot be used, "meta_error" in the metadata says why: np.savez
-// pickles its numpy object-array wrapper, whose GLOBAL/REDUCE opcodes are refused.
+// for scoring). When `meta` cannot be used, "meta_error" in the metadata says why (e.g. a meta
+// pickled with protocol 2 by Python 3, or holding numpy scalars: see docs/formats.md).
 #include <cmath>
 #include <filesystem>
 

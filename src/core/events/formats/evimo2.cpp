@@ -6,10 +6,10 @@
 //   dataset_info.npz       K, D, index, discretization, meta (a pickled dict)
 // Layout from better-flow/evimo (pydvs evimo-gen.py) and the EVIMO2 "Ground Truth Format"
 // page. Frame times (frame i = the i-th mask in key order) live only in meta; as for EV-IMO v1
-// they come from the first that works of: meta read by the restricted unpickler (pickle.h,
-// plain data only; "mask_times": "meta"), a meta.txt in the folder ("meta.txt"), else frames
-// spread evenly over the events ("uniform-estimate"). When meta cannot be used, "meta_error"
-// in metadata_json says why (np.savez pickles a numpy object-array wrapper, which is refused).
+// they come from the first that works of: meta read by the restricted unpickler (pickle.h:
+// plain data and np.savez's numpy object-array wrapper, nothing run; "mask_times": "meta"), a
+// meta.txt in the folder ("meta.txt"), else frames spread evenly over the events
+// ("uniform-estimate"). When meta cannot be used, "meta_error" in metadata_json says why.
 // Arrays are loaded whole (npy/npz); the events are then handed out in chunks.
 #include <algorithm>
 #include <cmath>

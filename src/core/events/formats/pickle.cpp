@@ -10,6 +10,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "core/events/formats/pickle_numpy.h"
 #include "core/events/formats/zip.h"
 #include "core/util/byte_source.h"
 #include "core/util/error.h"
@@ -51,7 +52,8 @@ std::string op_name(uint8_t code) {
   return hex;
 }
 
-// Why an opcode is refused, or nullptr for the plain-data ones.
+// Why an opcode is refused, or nullptr for the plain-data ones. GLOBAL, STACK_GLOBAL, REDUCE and
+// BUILD are accepted only in numpy's array layout (Unpickler::numpy_op).
 const char* refusal(uint8_t code) {
   switch (code) {
     case 'c':
@@ -198,11 +200,30 @@ std::optional<std::string> escape_decode(std::string_view s) {
   return out;
 }
 
-enum class Kind : uint8_t { None, Bool, Int, Float, Str, Bytes, Tuple, List, Dict, Set };
+// Tuple and the kinds after it are containers. NpName, NpDtype and NpArray come from numpy's
+// array layout only (pickle_numpy.h): an allow-listed name (i = pickle_numpy::Name), a dtype
+// (s = its type string, i = its byte order once BUILD gave it, else 0) and an array (i = 1 once
+// BUILD made it; items = {its value}).
+enum class Kind : uint8_t {
+  None,
+  Bool,
+  Int,
+  Float,
+  Str,
+  Bytes,
+  Tuple,
+  List,
+  Dict,
+  Set,
+  NpName,
+  NpDtype,
+  NpArray
+};
 
 const char* kind_name(Kind k) {
-  static constexpr const char* kNames[] = {"None",  "bool",  "int",  "float", "str",
-                                           "bytes", "tuple", "list", "dict",  "set"};
+  static constexpr const char* kNames[] = {
+      "None", "bool", "int", "float",      "str",         "bytes",      "tuple",
+      "list", "dict", "set", "numpy name", "numpy.dtype", "numpy array"};
   return kNames[int(k)];
 }
 
@@ -230,9 +251,8 @@ class Unpickler {
       op_at_ = pos_;
       op_ = d_[pos_++];
       if (op_ == '.') break;
-      if (const char* why = refusal(op_))
-        bad("refused pickle opcode " + op_name(op_) + " (" + why +
-            "): only plain containers, strings and numbers are accepted");
+      if (numpy_op()) continue;
+      if (refusal(op_)) refuse();
       if (!(scalar_op() || string_op() || container_op() || stack_op()))
         bad("unknown pickle opcode " + op_name(op_) + " (not a pickle, or corrupt)");
     }
@@ -250,6 +270,10 @@ class Unpickler {
   [[noreturn]] void bad(const std::string& why) const { fail_at_byte(src_, base_ + op_at_, why); }
   [[noreturn]] void bad_node(const Node& nd, const std::string& why) const {
     fail_at_byte(src_, base_ + nd.at, why);
+  }
+  [[noreturn]] void refuse() const {
+    bad("refused pickle opcode " + op_name(op_) + " (" + refusal(op_) +
+        "): only plain containers, strings and numbers are accepted");
   }
 
   // ---- input
@@ -324,13 +348,14 @@ class Unpickler {
   }
 
   // ---- stack
-  void push_new(Node nd) {
+  uint32_t add_node(Node nd) {
     if (nodes_.size() >= kPickleMaxValues)
       bad("pickle holds more than " + std::to_string(kPickleMaxValues) + " values");
     nd.at = op_at_;
     nodes_.push_back(std::move(nd));
-    stack_.push_back(uint32_t(nodes_.size() - 1));
+    return uint32_t(nodes_.size() - 1);
   }
+  void push_new(Node nd) { stack_.push_back(add_node(std::move(nd))); }
   void push_new(Kind k, int64_t i = 0) { push_new(Node{k, i}); }
   void push_str(std::string s, Kind k = Kind::Str) {
     Node nd{k};
@@ -644,16 +669,239 @@ class Unpickler {
           std::to_string(n_ - pos_) + " are left");
   }
 
+  // ---- numpy's array layout (see pickle_numpy.h), the only use of GLOBAL, STACK_GLOBAL, REDUCE
+  // and BUILD that is accepted. The allow-listed names become NpName values, REDUCE of
+  // _reconstruct(ndarray, shape, b'b') an NpArray under construction, REDUCE of
+  // dtype(str, bool, bool) an NpDtype, and BUILD fills those two in. Nothing is imported or
+  // called. Anything else is refused: another name or callable as before any of this existed,
+  // the wrong arguments or state with a message saying what numpy writes.
+  bool numpy_op() {
+    switch (op_) {
+      case 'c':
+        global_line();
+        break;
+      case 0x93:
+        stack_global();
+        break;
+      case 'R':
+        reduce();
+        break;
+      case 'b':
+        build();
+        break;
+      default:
+        return false;
+    }
+    return true;
+  }
+  [[noreturn]] void refuse_numpy(const std::string& why) const {
+    bad("refused pickle opcode " + op_name(op_) + ": " + why);
+  }
+  void push_name(pickle_numpy::Name name) { push_new(Node{Kind::NpName, int64_t(name)}); }
+  // GLOBAL's "module\nname\n", consumed only when it is an allowed name.
+  void global_line() {
+    std::string_view rest(reinterpret_cast<const char*>(d_ + pos_), n_ - pos_);
+    const size_t a = rest.find('\n');
+    const size_t b = a == std::string_view::npos ? a : rest.find('\n', a + 1);
+    if (b != std::string_view::npos)
+      if (auto name =
+              pickle_numpy::allowed_name(rest.substr(0, a), rest.substr(a + 1, b - a - 1))) {
+        pos_ += b + 1;
+        push_name(*name);
+        return;
+      }
+    refuse();
+  }
+  void stack_global() {
+    if (stack_.size() - floor() >= 2) {
+      const Node& module = nodes_[stack_[stack_.size() - 2]];
+      const Node& name = nodes_[stack_.back()];
+      if (module.kind == Kind::Str && name.kind == Kind::Str)
+        if (auto which = pickle_numpy::allowed_name(module.s, name.s)) {
+          stack_.resize(stack_.size() - 2);
+          push_name(*which);
+          return;
+        }
+    }
+    refuse();
+  }
+  const Node& item(const Node& tuple, size_t k) const { return nodes_[tuple.items[k]]; }
+  bool is_name(const Node& nd, pickle_numpy::Name name) const {
+    return nd.kind == Kind::NpName && nd.i == int64_t(name);
+  }
+  bool is_flag(const Node& nd) const {  // numpy writes False/True, older ones 0/1
+    return nd.kind == Kind::Bool || (nd.kind == Kind::Int && (nd.i == 0 || nd.i == 1));
+  }
+  // A shape: a tuple of at most kMaxDims ints >= 0.
+  std::optional<std::vector<int64_t>> shape_of(const Node& nd) const {
+    if (nd.kind != Kind::Tuple || nd.items.size() > pickle_numpy::kMaxDims) return std::nullopt;
+    std::vector<int64_t> shape;
+    for (uint32_t k : nd.items) {
+      if (nodes_[k].kind != Kind::Int || nodes_[k].i < 0) return std::nullopt;
+      shape.push_back(nodes_[k].i);
+    }
+    return shape;
+  }
+  // "numpy.ndarray", "int", "(numpy.ndarray, tuple, bytes)", for messages.
+  std::string describe(const Node& nd, bool open_tuple = true) const {
+    if (nd.kind == Kind::NpName) return pickle_numpy::name_text(pickle_numpy::Name(nd.i));
+    if (nd.kind != Kind::Tuple || !open_tuple) return kind_name(nd.kind);
+    std::string s = "(";
+    for (size_t k = 0; k < nd.items.size() && k < 9; ++k)
+      s += (k ? ", " : "") + describe(item(nd, k), false);
+    return s + (nd.items.size() > 9 ? ", ...)" : nd.items.size() == 1 ? ",)" : ")");
+  }
+
+  void reduce() {
+    if (stack_.size() - floor() < 2 || nodes_[stack_[stack_.size() - 2]].kind != Kind::NpName)
+      refuse();
+    const uint32_t args_at = pop(), fn_at = pop();
+    const auto fn = pickle_numpy::Name(nodes_[fn_at].i);
+    const Node& args = nodes_[args_at];
+    const bool three = args.kind == Kind::Tuple && args.items.size() == 3;
+    using pickle_numpy::Name;
+    if (fn == Name::Reconstruct && three && is_name(item(args, 0), Name::Ndarray) &&
+        shape_of(item(args, 1)) &&
+        (item(args, 2).kind == Kind::Bytes || item(args, 2).kind == Kind::Str)) {
+      push_new(Node{Kind::NpArray, 0});
+      return;
+    }
+    if (fn == Name::Dtype && three && item(args, 0).kind == Kind::Str && is_flag(item(args, 1)) &&
+        is_flag(item(args, 2))) {
+      Node nd{Kind::NpDtype, 0};
+      nd.s = item(args, 0).s;
+      push_new(std::move(nd));
+      return;
+    }
+    refuse_numpy(std::string(pickle_numpy::name_text(fn)) + " called with " + describe(args) +
+                 "; only numpy.core.multiarray._reconstruct(numpy.ndarray, shape tuple, bytes) "
+                 "and numpy.dtype(str, bool, bool) are accepted");
+  }
+
+  void build() {
+    if (stack_.size() - floor() < 2) refuse();
+    const uint32_t target = stack_[stack_.size() - 2];
+    const Kind kind = nodes_[target].kind;
+    if (kind != Kind::NpDtype && kind != Kind::NpArray) refuse();
+    const uint32_t state = pop();
+    if (nodes_[target].i != 0) refuse_numpy(std::string(kind_name(kind)) + " given a state twice");
+    if (kind == Kind::NpDtype)
+      build_dtype(nodes_[target], nodes_[state]);
+    else
+      build_array(target, nodes_[state]);
+  }
+  // numpy writes (version, byte order, subarray, names, fields, elsize, alignment, flags
+  // [, metadata]): the byte order is kept, the rest is ignored (only the type strings that
+  // pickle_numpy accepts are ever used, and none of them has fields or a subarray).
+  void build_dtype(Node& dtype, const Node& st) {
+    const bool ok = st.kind == Kind::Tuple && st.items.size() >= 2 &&
+                    item(st, 0).kind == Kind::Int && item(st, 1).kind == Kind::Str &&
+                    item(st, 1).s.size() == 1 &&
+                    std::string_view("<>|").find(item(st, 1).s[0]) != std::string_view::npos;
+    if (!ok)
+      refuse_numpy("numpy.dtype state " + describe(st) +
+                   " is not (version, '<' '>' or '|', ...) as numpy writes it");
+    dtype.i = item(st, 1).s[0];
+  }
+  // numpy writes (1, shape, dtype, is_fortran, data).
+  void build_array(uint32_t target, const Node& st) {
+    std::optional<std::vector<int64_t>> shape;
+    const bool ok = st.kind == Kind::Tuple && st.items.size() == 5 &&
+                    item(st, 0).kind == Kind::Int && item(st, 0).i == 1 &&
+                    (shape = shape_of(item(st, 1))) && item(st, 2).kind == Kind::NpDtype &&
+                    is_flag(item(st, 3));
+    if (!ok)
+      refuse_numpy("numpy array state " + describe(st) +
+                   " is not (1, shape tuple, numpy.dtype, bool, data) as numpy writes it");
+    // st, dtype and data are not used once add_node() may have moved the nodes.
+    const Node& dtype = item(st, 2);
+    const Node& data = item(st, 4);
+    const bool fortran = item(st, 3).i != 0;
+    if (dtype.i == 0) refuse_numpy("numpy.dtype '" + dtype.s + "' has no state (BUILD)");
+    const auto count = pickle_numpy::element_count(*shape, kPickleMaxValues);
+    if (!count)
+      refuse_numpy("numpy array of shape " + pickle_numpy::shape_text(*shape) + " has more than " +
+                   std::to_string(kPickleMaxValues) + " elements");
+    std::vector<uint32_t> flat;
+    if (pickle_numpy::is_object_type(dtype.s)) {
+      if (data.kind != Kind::List || data.items.size() != *count)
+        refuse_numpy("a numpy object array of shape " + pickle_numpy::shape_text(*shape) +
+                     " needs a list of " + std::to_string(*count) + " items, its data is a " +
+                     kind_name(data.kind) +
+                     (data.kind == Kind::List ? " of " + std::to_string(data.items.size()) : ""));
+      flat = data.items;  // numpy copies the items out here: later APPENDs do not reach it
+    } else {
+      if (data.kind != Kind::Bytes)
+        refuse_numpy("a numeric numpy array's data must be bytes, not " +
+                     std::string(kind_name(data.kind)));
+      std::vector<pickle_numpy::Scalar> values;
+      const std::string why = pickle_numpy::decode_numeric(char(dtype.i), dtype.s, data.s, *shape,
+                                                           *count, fortran, values);
+      if (!why.empty()) refuse_numpy(why);
+      flat.reserve(values.size());
+      for (const auto& v : values) {
+        using S = pickle_numpy::Scalar;
+        Node nd{v.kind == S::Bool ? Kind::Bool : v.kind == S::Int ? Kind::Int : Kind::Float, v.i};
+        nd.f = v.f;
+        flat.push_back(add_node(std::move(nd)));
+      }
+    }
+    const uint32_t value = nest(*shape, *count, std::move(flat));
+    nodes_[target].items = {value};
+    nodes_[target].i = 1;
+  }
+  // Nests row-major elements into lists by `shape`; a 0-d array is its one element.
+  uint32_t nest(const std::vector<int64_t>& shape, uint64_t count, std::vector<uint32_t> level) {
+    if (shape.empty()) return level.at(0);
+    // Lists made: 1 + shape[0] + shape[0] * shape[1] + ... At most ndim per element, except for
+    // an empty array, whose outer dimensions could otherwise ask for any number of empty lists.
+    uint64_t lists = 0, groups = 1;
+    for (size_t d = 0; d < shape.size(); ++d) {
+      lists += groups;
+      if (d + 1 < shape.size())  // saturating at kPickleMaxValues + 1
+        groups = uint64_t(shape[d]) > kPickleMaxValues / groups ? kPickleMaxValues + 1
+                                                                : groups * uint64_t(shape[d]);
+    }
+    if (lists > shape.size() * count + 4096 || lists > kPickleMaxValues)
+      refuse_numpy("numpy array of shape " + pickle_numpy::shape_text(shape) +
+                   " would need more than " + std::to_string(shape.size() * count + 4096) +
+                   " nested lists");
+    for (size_t d = shape.size(); d-- > 0;) {
+      const size_t len = size_t(shape[d]);
+      uint64_t outer = 1;
+      for (size_t k = 0; k < d; ++k) outer *= uint64_t(shape[k]);
+      std::vector<uint32_t> next;
+      next.reserve(size_t(outer));
+      for (uint64_t g = 0; g < outer; ++g) {
+        Node nd{Kind::List};
+        const auto from = level.begin() + std::ptrdiff_t(g * len);
+        nd.items.assign(from, from + std::ptrdiff_t(len));
+        next.push_back(add_node(std::move(nd)));
+      }
+      level = std::move(next);
+    }
+    return level[0];
+  }
+
   // ---- result
   bool is_container(Kind k) const { return k >= Kind::Tuple; }
 
   // Walks the object graph before anything is copied: refuses a container that holds itself,
   // nesting deeper than kPickleMaxDepth, and a result (shared objects copied at each place they
   // appear) of more than kPickleMaxValues values, so that a small pickle cannot make a huge
-  // result. Recursion stays within the depth limit. Returns the node's size in values.
+  // result. Recursion stays within the depth limit. Returns the node's size in values. A numpy
+  // name, a lone dtype or an array that BUILD never filled in is refused here, where it is part
+  // of the result; a built array counts as a container of its value.
   uint64_t check(uint32_t i, int depth) {
     const Node& nd = nodes_[i];
     if (!is_container(nd.kind)) return 1;
+    if (nd.kind == Kind::NpName)
+      bad_node(nd, "refused " + std::string(pickle_numpy::name_text(pickle_numpy::Name(nd.i))) +
+                       " as a value: numpy names are only accepted to rebuild an array");
+    if (nd.kind == Kind::NpDtype)
+      bad_node(nd, "refused numpy.dtype('" + nd.s + "') as a value: only an array's dtype");
+    if (nd.kind == Kind::NpArray && nd.i == 0)
+      bad_node(nd, "refused numpy array without its state: _reconstruct's REDUCE has no BUILD");
     if (state_[i] == kVisiting)
       bad_node(nd, "a " + std::string(kind_name(nd.kind)) + " contains itself");
     if (depth >= kPickleMaxDepth || (state_[i] == kDone && depth + height_[i] > kPickleMaxDepth))
@@ -690,6 +938,8 @@ class Unpickler {
         return nd.s;
       case Kind::Bytes:
         return nlohmann::json::binary(std::vector<uint8_t>(nd.s.begin(), nd.s.end()));
+      case Kind::NpArray:  // check() let through only built arrays
+        return to_json(nd.items.at(0));
       default:
         break;
     }
