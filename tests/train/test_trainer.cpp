@@ -184,6 +184,17 @@ TEST(Trainer, ResumeAfterKillContinuesWithTheSameLosses) {
   bool resumed = false;
   for (const auto& r : runs) resumed |= r["event"] == "resume";
   EXPECT_TRUE(resumed);
+  // The resumed run carries its time and best score over.
+  ModelSpec sa = load_model(straight + "/model.safetensors"),
+            sb = load_model(killed + "/model.safetensors");
+  const double wa = sa.training["wall_seconds"].get<double>(),
+               wb = sb.training["wall_seconds"].get<double>();
+  EXPECT_GT(wb, 0.3 * wa);
+  EXPECT_LT(wb, 5.0 * wa + 30);
+  for (const auto& j : read_log(killed, "train")) {
+    EXPECT_LT(j["wall_s"].get<double>(), 1e5);
+    EXPECT_LT(j["samples_per_s"].get<double>(), 1e5);
+  }
   // Same weights at the end.
   ModelSpec ma = load_model(straight + "/model.safetensors"),
             mb = load_model(killed + "/model.safetensors");

@@ -38,15 +38,17 @@ CheckpointState load_checkpoint(const std::string& path, SpikeMSNetwork& net,
     ar.read("optimizer", optim);
     net->load(model);
     opt.load(optim);
-    torch::Tensor t;
-    ar.read("step", t);
-    st.step = t.item<int64_t>();
-    ar.read("best_val_iou", t);
-    st.best_val_iou = t.item<double>();
-    ar.read("best_step", t);
-    st.best_step = t.item<int64_t>();
-    ar.read("wall_seconds", t);
-    st.wall_seconds = t.item<double>();
+    // A fresh tensor per key: read() into a defined tensor keeps that tensor's dtype and
+    // reinterprets the bytes (a double read into the int64 "step" tensor came back as bits).
+    auto scalar = [&](const char* key) {
+      torch::Tensor t;
+      ar.read(key, t);
+      return t;
+    };
+    st.step = scalar("step").item<int64_t>();
+    st.best_val_iou = scalar("best_val_iou").item<double>();
+    st.best_step = scalar("best_step").item<int64_t>();
+    st.wall_seconds = scalar("wall_seconds").item<double>();
   } catch (const c10::Error& e) {
     fail(path, "",
          "not a usable spikems checkpoint for this network: " +
