@@ -20,13 +20,13 @@ const std::map<std::string, std::string>& table() {
 }  // namespace
 
 std::vector<std::string> preset_names() {
-  return {"mod", "evimo", "eed-net", "tiny"};
+  return {"mod", "mod-translate", "evimo", "eed-net", "tiny"};
 }
 
 const std::string& preset_toml(const std::string& name) {
   auto it = table().find(name);
   if (it == table().end())
-    fail("--preset", "", "unknown preset '" + name + "' (use mod, evimo, eed-net or tiny)");
+    fail("--preset", "", "unknown preset '" + name + "' (use mod, mod-translate, evimo, eed-net or tiny)");
   return it->second;
 }
 

@@ -332,6 +332,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
   int in_sum = 0;
   auto seg_start = std::chrono::steady_clock::now();
   const double wall_before = st.wall_seconds;
+  res.wall_seconds = st.wall_seconds;  // time of the last log line (samples/s between lines)
   while (st.step < c.steps) {
     if (interrupted()) break;
     Batch b = loader.next();
