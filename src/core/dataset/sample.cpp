@@ -4,17 +4,11 @@
 #include <cmath>
 
 #include "core/util/error.h"
+#include "core/util/splitmix.h"
 
 namespace spikems {
 
 namespace {
-
-uint64_t splitmix64(uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
 
 // Uniform in [0, 1) from a 64-bit hash.
 double unit(uint64_t h) {

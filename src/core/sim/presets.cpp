@@ -26,7 +26,8 @@ std::vector<std::string> preset_names() {
 const std::string& preset_toml(const std::string& name) {
   auto it = table().find(name);
   if (it == table().end())
-    fail("--preset", "", "unknown preset '" + name + "' (use mod, mod-translate, evimo, eed-net or tiny)");
+    fail("--preset", "",
+         "unknown preset '" + name + "' (use mod, mod-translate, evimo, eed-net or tiny)");
   return it->second;
 }
 
