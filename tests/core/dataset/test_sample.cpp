@@ -9,6 +9,7 @@
 #include "core/dataset/batch_loader.h"
 #include "core/dataset/sample.h"
 #include "core/dataset/sequence.h"
+#include "core/events/formats/png16.h"
 #include "core/events/io.h"
 #include "core/util/error.h"
 
@@ -209,6 +210,33 @@ TEST(Dataset, LoadsASimulatorStyleFolderBySplitAndRefusesUnlabelledData) {
   bare.events.label.clear();
   write_recording((dir / "bare.h5").string(), bare);
   EXPECT_THROW(load_sequence((dir / "bare.h5").string()), Error);
+  fs::remove_all(dir);
+}
+
+// An EV-IMO txt folder (no labels, mask frames): events take the id of the nearest mask frame,
+// dilated by the source's mask_dilation (5x5 by default, as the SpikeMS authors), then 0/1.
+TEST(Dataset, EvimoFolderIsLabelledFromDilatedMasks) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "spikems_dataset_evimo_test";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "img");
+  std::ofstream(dir / "events.txt") << "0.100000 1 2 1\n0.200000 5 3 0\n0.350000 6 4 1\n";
+  std::ofstream(dir / "meta.txt") << "{'frames': [{'id': 7, 'ts': 0.15}, {'id': 8, 'ts': 0.30}]}";
+  for (int id : {7, 8}) {
+    Image16 img;
+    img.width = 8;
+    img.height = 6;
+    img.channels = 3;
+    img.data.assign(8 * 6 * 3, 0);
+    img.data[(2 * 8 + 5) * 3 + 0] = 2000;  // object 2 at (5, 2) (R = BGR channel 2)
+    write_png16((dir / "img" / ("depth_mask_" + std::to_string(id) + ".png")).string(), img);
+  }
+  DatasetSource src{dir.string()};
+  ASSERT_EQ(sequence_files(src), std::vector<std::string>{dir.string()});  // one recording
+  LabelledSequence s = load_sequences(src).at(0);
+  EXPECT_EQ(s.events.label, (std::vector<uint16_t>{0, 1, 1}));  // (1,2) lies outside 3..7
+  s = load_sequence(dir.string(), 1);                           // no dilation
+  EXPECT_EQ(s.events.label, (std::vector<uint16_t>{0, 0, 0}));
   fs::remove_all(dir);
 }
 
