@@ -70,7 +70,7 @@ void add(CLI::App& app) {
       "  spikems simulate --preset mod --sequences 20 --duration 2s --out data/mod-train\n"
       "  spikems train --config configs/train/default.toml --out runs/default\n"
       "  spikems train --resume runs/default                  (after a stop or a kill)\n"
-      "  spikems train --config configs/train/default.toml --out runs/x --set loss.kind=bce "
+      "  spikems train --config configs/train/default.toml --out runs/x --set loss.kind=both "
       "--set optim.lr=0.002 --steps 500\n"
       "The run folder gets config.json, log.jsonl, curves.svg, checkpoint.pt, model.safetensors "
       "and best.safetensors. Every key: docs/training.md.");

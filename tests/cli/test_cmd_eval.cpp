@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "common/test_paths.h"
+#include "common/tiny_models.h"
 #include "core/dataset/sequence.h"
 #include "core/model/model_file.h"
 
@@ -43,17 +44,8 @@ class EvalCli : public ::testing::Test {
     setup_out_ = out;
     // A 1x1 convolution passing both polarities to the output: every pixel with events is
     // predicted (one step later), so the moving object's pixels are found among the rest.
-    ModelSpec m;
-    m.name = "pass-all";
-    LayerSpec l;
-    l.in_channels = 2;
-    l.out_channels = 2;
-    l.kernel = 1;
-    l.stride = 1;
-    l.weight = {1.f, 0.f, 0.f, 1.f};
-    m.layers = {l};
-    fill_fir_kernels(m);
-    save_model(dir_ + "/pass_all.safetensors", m);
+    save_model(dir_ + "/pass_all.safetensors",
+               test::pointwise_model({1.f, 0.f, 0.f, 1.f}, "pass-all"));
   }
   void SetUp() override { ASSERT_EQ(setup_rc_, 0) << setup_out_; }
   static std::string data() { return dir_ + "/tiny"; }

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 
+#include "common/tiny_models.h"
 #include "core/eval/sequence_scorer.h"
 #include "core/eval/window_scorer.h"
 #include "core/runtime/segmenter.h"
@@ -127,16 +128,7 @@ TEST(WindowScorer, RejectsMisuse) {
 // ON events meet a zero weight. With the sampled kernel eps[0] = 0 and eps[1] = 0.82 > theta,
 // an OFF event in step s makes an output spike at step s + 1 (one step per layer).
 ModelSpec pass_off_model() {
-  ModelSpec m;
-  LayerSpec l;
-  l.in_channels = 2;
-  l.out_channels = 2;
-  l.kernel = 1;
-  l.stride = 1;
-  l.weight = {1.f, 0.f, 0.f, 0.f};
-  m.layers = {l};
-  fill_fir_kernels(m);
-  return m;
+  return test::pointwise_model({1.f, 0.f, 0.f, 0.f});
 }
 
 LabelledSequence one_moving_event(int64_t t) {

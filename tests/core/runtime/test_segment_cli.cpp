@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "common/test_paths.h"
+#include "common/tiny_models.h"
 #include "core/model/model_file.h"
 
 namespace spikems {
@@ -18,17 +19,9 @@ using test::spikems_binary;
 // A 1x1 conv passing OFF events (channel 0) through to output channel 0; ON events reach a
 // zero weight. Every OFF event is foreground, every ON event background.
 std::string write_pass_off_model(const std::string& dir, int w = 0, int h = 0) {
-  ModelSpec m;
+  ModelSpec m = test::pointwise_model({1.f, 0.f, 0.f, 0.f}, "spikems");
   m.input_width = w;
   m.input_height = h;
-  LayerSpec l;
-  l.in_channels = 2;
-  l.out_channels = 2;
-  l.kernel = 1;
-  l.stride = 1;
-  l.weight = {1.f, 0.f, 0.f, 0.f};
-  m.layers = {l};
-  fill_fir_kernels(m);
   std::string p = dir + "/pass_off.safetensors";
   save_model(p, m);
   return p;
