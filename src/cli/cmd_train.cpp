@@ -52,7 +52,8 @@ void add(CLI::App& app) {
   auto a = std::make_shared<Args>();
   auto* cmd = app.add_subcommand(
       "train", "Train the SpikeMS network on labelled event data (simulated or recorded)");
-  cmd->add_option("--config,-c", a->config, "training configuration (TOML, configs/train/)")
+  cmd->add_option("--config,-c", a->config,
+                  "training configuration (TOML, configs/train/; or a run's config.json)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--out,-o", a->out, "run folder: log, checkpoints, models");
   cmd->add_option("--resume", a->resume, "continue the run in this folder from its checkpoint")

@@ -226,6 +226,17 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_EQ(c.neurons, "fir");
   EXPECT_DOUBLE_EQ(c.lr, 0.01);
   EXPECT_DOUBLE_EQ(c.source["optim"]["lr"].get<double>(), 0.01);
+  // A run's config.json starts a new run with the same configuration.
+  {
+    const std::string d = scratch_dir();
+    std::ofstream(d + "/config.json") << c.source.dump(2);
+    TrainConfig again = load_train_config(d + "/config.json", {"optim.batch=3"});
+    EXPECT_EQ(again.neurons, "fir");
+    EXPECT_DOUBLE_EQ(again.lr, 0.01);
+    EXPECT_EQ(again.batch, 3);
+    std::ofstream(d + "/bad.json") << "{\"optim\": {\"lr\": \"fast\"}}";
+    EXPECT_THROW(load_train_config(d + "/bad.json", {}), Error);
+  }
   // TOML syntax errors name the line; a missing file its path. Through the CLI: exit 1.
   const std::string dir = scratch_dir();
   { std::ofstream(dir + "/bad.toml") << "[optim]\nlr = = 3\n"; }

@@ -1,6 +1,7 @@
 #include "train/trainer/train_config.h"
 
 #include <toml++/toml.h>
+#include <fstream>
 #include <set>
 #include <sstream>
 
@@ -295,6 +296,17 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
 }
 
 TrainConfig load_train_config(const std::string& path, const std::vector<std::string>& overrides) {
+  if (path.size() > 5 && path.compare(path.size() - 5, 5, ".json") == 0) {  // a run's config.json
+    std::ifstream in(path);
+    if (!in) fail(path, "", "cannot open the file");
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(in);
+    } catch (const std::exception& e) {
+      fail(path, "", std::string("not valid JSON: ") + e.what());
+    }
+    return train_config_from_json(j, path, overrides);
+  }
   toml::table t;
   try {
     t = toml::parse_file(path);
