@@ -55,8 +55,9 @@ struct TrainConfig {
   nlohmann::json source;  // the resolved configuration (every key), as JSON
 };
 
-// Reads a TOML file (or a run's config.json, to start a new run like an old one), applies `overrides` ("section.key=value", value in TOML syntax; a bare
-// word is taken as a string) and validates. Throws Error naming the file and the key.
+// Reads a TOML file (or a run's config.json, to start a new run like an old one), applies
+// `overrides` ("section.key=value", value in TOML syntax; a bare word is taken as a string) and
+// validates. Throws Error naming the file and the key.
 TrainConfig load_train_config(const std::string& path, const std::vector<std::string>& overrides);
 // The same from JSON (a run's saved config.json, for --resume).
 TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
