@@ -25,17 +25,19 @@ BatchTensors to_tensors(const std::vector<Sample>& samples, double ts, torch::De
   return t;
 }
 
-void score_windows(const torch::Tensor& out_window, const torch::Tensor& fg_window,
-                   WindowScores& scores) {
+std::vector<MaskCounts> window_counts(const torch::Tensor& out_window,
+                                      const torch::Tensor& fg_window) {
   torch::NoGradGuard ng;
   auto P = (out_window.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(torch::kUInt8).cpu();
   auto G = (fg_window.detach().sum(0) > 0).to(torch::kUInt8).cpu();
+  std::vector<MaskCounts> counts;
   for (int64_t b = 0; b < P.size(0); ++b) {
     auto p = P[b].contiguous(), g = G[b].contiguous();
     std::vector<uint8_t> pv(p.data_ptr<uint8_t>(), p.data_ptr<uint8_t>() + p.numel());
     std::vector<uint8_t> gv(g.data_ptr<uint8_t>(), g.data_ptr<uint8_t>() + g.numel());
-    scores.add(count_masks(pv, gv));
+    counts.push_back(count_masks(pv, gv));
   }
+  return counts;
 }
 
 }  // namespace spikems::train

@@ -18,10 +18,10 @@ struct BatchTensors {
 // Samples must share T, H, W and the warm-up. Throws Error otherwise.
 BatchTensors to_tensors(const std::vector<Sample>& samples, double ts, torch::Device device);
 
-// Scores each sample's window: P = pixels with any output spike in the window's steps
-// (out_window [Tw, B, C, H, W]), G = pixels with a foreground event in them (fg_window
-// [Tw, B, H, W]); adds one MaskCounts per sample to `scores`.
-void score_windows(const torch::Tensor& out_window, const torch::Tensor& fg_window,
-                   WindowScores& scores);
+// Per sample, the mask counts of its window: P = pixels with any output spike in the window's
+// steps (out_window [Tw, B, C, H, W]), G = pixels with a foreground event in them (fg_window
+// [Tw, B, H, W]). Feed them to WindowScores::add.
+std::vector<MaskCounts> window_counts(const torch::Tensor& out_window,
+                                      const torch::Tensor& fg_window);
 
 }  // namespace spikems::train

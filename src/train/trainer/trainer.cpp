@@ -178,15 +178,9 @@ std::string percent(double v) {
 
 TrainConfig load_run_config(const std::string& out_dir, const std::vector<std::string>& overrides) {
   const std::string path = (fs::path(out_dir) / "config.json").string();
-  std::ifstream in(path);
-  if (!in) fail(path, "", "no such file: is " + out_dir + " a `spikems train` run folder?");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(in);
-  } catch (const std::exception& e) {
-    fail(path, "", std::string("not valid JSON: ") + e.what());
-  }
-  return train_config_from_json(j, path, overrides);
+  if (!fs::exists(path))
+    fail(path, "", "no such file: is " + out_dir + " a `spikems train` run folder?");
+  return load_train_config(path, overrides);
 }
 
 TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
@@ -247,7 +241,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
     if (c.init == "data") {
       Batch b = BatchLoader::make(train_ptr, weights, c.sample, std::max(4, c.batch), c.seed, -1);
       BatchTensors bt = to_tensors(b.samples, ts, torch::kCPU);
-      auto r = init_weights_from_data(net, bt.input, c.init_rates, c.seed);
+      auto r = init_weights_from_data(net, bt.input, c.init_rates, ts, c.seed);
       if (ro.progress) {
         std::fprintf(stderr, "init: layer firing rates");
         for (double v : r) std::fprintf(stderr, " %.4f", v);
@@ -299,7 +293,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
                                val.begin() + std::min(val.size(), i + size_t(c.batch)));
       BatchTensors bt = to_tensors(part, ts, device);
       StepOutput o = forward_loss(net, bt, c, lo, ts);
-      score_windows(o.out_window, o.fg_window, ws);
+      for (const auto& m : window_counts(o.out_window, o.fg_window)) ws.add(m);
       loss += o.total.item<double>();
       for (size_t k = 0; k < rates.size(); ++k) rates[k] += o.rates[k];
       ++batches;
@@ -353,9 +347,11 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
     if (c.clip > 0) torch::nn::utils::clip_grad_norm_(net->parameters(), c.clip);
     opt.step();
     ++st.step;
-    WindowScores ws;
-    score_windows(o.out_window, o.fg_window, ws);
-    score_windows(o.out_window, o.fg_window, train_ws);
+    WindowScores ws;  // this batch (progress bar); train_ws: since the last log line
+    for (const auto& m : window_counts(o.out_window, o.fg_window)) {
+      ws.add(m);
+      train_ws.add(m);
+    }
     ema_loss = ema_loss < 0 ? loss : 0.95 * ema_loss + 0.05 * loss;
     if (ws.windows()) ema_iou = ema_iou < 0 ? ws.mean_iou() : 0.95 * ema_iou + 0.05 * ws.mean_iou();
     sum_loss += loss;
@@ -410,7 +406,6 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
                      (long long)st.best_step, percent(v["detection_rate"].get<double>()).c_str());
     }
     if (st.step % c.checkpoint_every == 0 || st.step == c.steps) checkpoint();
-    res.final_loss = loss;
   }
   bar.finish();
   if (st.step % c.checkpoint_every != 0 && st.step != c.steps) checkpoint();  // interrupted

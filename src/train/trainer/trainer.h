@@ -24,7 +24,7 @@ struct TrainRunOptions {
 
 struct TrainResult {
   int64_t steps = 0;
-  double final_loss = 0, best_val_iou = -1, wall_seconds = 0;
+  double best_val_iou = -1, wall_seconds = 0;
 };
 
 // Throws Error on bad data, a non-finite loss (naming the step; the last checkpoint stays) or

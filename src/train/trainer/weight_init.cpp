@@ -9,10 +9,10 @@ double firing_rate(const torch::Tensor& spikes, double ts) {
 }
 
 std::vector<double> init_weights_from_data(SpikeMSNetwork& net, const torch::Tensor& input,
-                                           const std::vector<double>& rates, uint64_t seed) {
+                                           const std::vector<double>& rates, double ts,
+                                           uint64_t seed) {
   torch::NoGradGuard ng;
   auto gen = at::detail::createCPUGenerator(seed);
-  const double ts = 1.0;  // rates are counted in spikes; the value 1/Ts cancels below
   std::vector<double> reached;
   torch::Tensor x = input;
   for (size_t k = 0; k < net->size(); ++k) {
@@ -21,11 +21,9 @@ std::vector<double> init_weights_from_data(SpikeMSNetwork& net, const torch::Ten
     const double fan_in =
         double(sz[1 - (l->to_spec().kind == LayerKind::ConvTranspose)]) * double(sz[2] * sz[3]);
     torch::Tensor w0 = at::normal(0.0, 1.0 / std::sqrt(fan_in), l->weight.sizes(), gen);
-    const double in_scale = x.max().item<double>();  // 1/Ts: rates are per step below
     auto rate_at = [&](double g) {
       l->weight.copy_(w0 * g);
-      torch::Tensor s = l->forward(x);
-      return firing_rate(s, ts) / std::max(in_scale, 1e-12);
+      return firing_rate(l->forward(x), ts);
     };
     // Bisection in log scale on the gain (the rate grows with it).
     double lo = 1e-2, hi = 1e3;

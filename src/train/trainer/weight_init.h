@@ -13,9 +13,11 @@
 
 namespace spikems::train {
 
-// Returns each layer's reached rate. `input` [T, B, 2, H, W]; `rates` one target per layer.
+// Returns each layer's reached rate. `input` [T, B, 2, H, W] (spikes 1/ts); `rates` one
+// target per layer; ts the time step in ms.
 std::vector<double> init_weights_from_data(SpikeMSNetwork& net, const torch::Tensor& input,
-                                           const std::vector<double>& rates, uint64_t seed);
+                                           const std::vector<double>& rates, double ts,
+                                           uint64_t seed);
 
 // Mean spikes per neuron per step of a spike tensor (values 1/Ts).
 double firing_rate(const torch::Tensor& spikes, double ts);
