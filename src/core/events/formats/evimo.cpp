@@ -71,45 +71,6 @@ std::string find_meta_txt(const std::string& npz_path) {
   return "";
 }
 
-// Frame times (us) from a meta dict's 'frames' list, which must describe all F mask frames.
-std::vector<int64_t> listed_times(const nlohmann::json& meta, const std::string& src, int64_t F) {
-  auto frames = evimo_frames_from_meta(meta, src);
-  if (int64_t(frames.size()) != F)
-    fail(src, "",
-         std::to_string(frames.size()) + " frames listed, the npz mask has " + std::to_string(F));
-  std::vector<int64_t> times;
-  for (const auto& f : frames) times.push_back(f.t_us);
-  return times;
-}
-
-// Mask frame times from `meta`, else meta.txt, else the uniform estimate (see the top of the
-// file); `info` gets "mask_times" and, when `meta` was there but unusable, "meta_error".
-std::vector<int64_t> mask_times(const std::string& path, bool has_meta, int64_t F,
-                                const EventStream& ev, nlohmann::json& info) {
-  if (has_meta) {
-    try {
-      auto times = listed_times(unpickle_npz_member(path, "meta"), path + ":meta", F);
-      info["mask_times"] = "meta";
-      return times;
-    } catch (const Error& e) {
-      info["meta_error"] = e.what();
-    }
-  }
-  std::string meta_txt = find_meta_txt(path);
-  if (!meta_txt.empty()) {
-    info["mask_times"] = "meta.txt";
-    return listed_times(parse_python_literal(read_text_file(meta_txt), meta_txt), meta_txt, F);
-  }
-  std::vector<int64_t> times;
-  for (int64_t i = 0; i < F; ++i)
-    times.push_back(ev.empty() ? 0
-                               : ev.t_first() +
-                                     int64_t(std::llround((double(i) + 0.5) *
-                                                          double(ev.duration_us()) / double(F))));
-  info["mask_times"] = "uniform-estimate";
-  return times;
-}
-
 std::unique_ptr<EventReader> open_evimo1_npz(const std::string& path, const ReadOptions& opt) {
   NpzFile z(path);
   if (!z.has("events")) fail(path, "", "EV-IMO npz without an 'events' array");
@@ -133,7 +94,8 @@ std::unique_ptr<EventReader> open_evimo1_npz(const std::string& path, const Read
     mh = int(m.shape[1]);
     mw = int(m.shape[2]);
     auto ids = m.to<uint16_t>();
-    std::vector<int64_t> times = mask_times(path, z.has("meta"), F, ev, meta);
+    std::vector<int64_t> times = evimo_mask_times(path, z.has("meta"), find_meta_txt(path),
+                                                  size_t(F), ev, "the npz mask", meta);
     const size_t plane = size_t(mw) * size_t(mh);
     for (int64_t i = 0; i < F; ++i) {
       MaskFrame f;

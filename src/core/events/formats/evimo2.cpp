@@ -27,51 +27,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Frame times (us) from a meta dict's 'frames' list, which must describe all `count` masks.
-std::vector<int64_t> listed_times(const nlohmann::json& meta, const std::string& src,
-                                  size_t count) {
-  auto frames = evimo_frames_from_meta(meta, src);
-  if (frames.size() != count)
-    fail(src, "",
-         std::to_string(frames.size()) + " frames listed, dataset_mask.npz has " +
-             std::to_string(count));
-  std::vector<int64_t> times;
-  for (const auto& f : frames) times.push_back(f.t_us);
-  return times;
-}
-
-// Mask times from dataset_info.npz's meta, else meta.txt, else the uniform estimate (see the
-// top of the file); `info` gets "mask_times" and, when meta was there but unusable, "meta_error".
-std::vector<int64_t> mask_times(const std::string& dir, bool has_meta, size_t count,
-                                const EventStream& ev, nlohmann::json& info) {
-  const std::string info_npz = (fs::path(dir) / "dataset_info.npz").string();
-  if (has_meta) {
-    try {
-      auto times = listed_times(unpickle_npz_member(info_npz, "meta"), info_npz + ":meta", count);
-      info["mask_times"] = "meta";
-      return times;
-    } catch (const Error& e) {
-      info["meta_error"] = e.what();
-    }
-  }
-  const std::string meta_txt = (fs::path(dir) / "meta.txt").string();
-  std::error_code ec;
-  if (fs::is_regular_file(meta_txt, ec)) {
-    auto bytes = read_file_bytes(meta_txt);
-    info["mask_times"] = "meta.txt";
-    return listed_times(parse_python_literal(std::string(bytes.begin(), bytes.end()), meta_txt),
-                        meta_txt, count);
-  }
-  std::vector<int64_t> times;
-  for (size_t i = 0; i < count; ++i)
-    times.push_back(ev.empty()
-                        ? 0
-                        : ev.t_first() + std::llround((double(i) + 0.5) * double(ev.duration_us()) /
-                                                      double(count)));
-  info["mask_times"] = "uniform-estimate";
-  return times;
-}
-
 std::unique_ptr<EventReader> open_evimo2(const std::string& dir, const ReadOptions& opt) {
   auto file = [&](const char* n) { return (fs::path(dir) / n).string(); };
   NpyArray ta = read_npy(file("dataset_events_t.npy"));
@@ -125,7 +80,9 @@ std::unique_ptr<EventReader> open_evimo2(const std::string& dir, const ReadOptio
     for (const auto& k : masks.keys())
       if (k.rfind("mask_", 0) == 0) keys.push_back(k);
     std::sort(keys.begin(), keys.end());  // zero-padded numbers sort in frame order
-    std::vector<int64_t> times = mask_times(dir, has_meta, keys.size(), ev, meta);
+    std::vector<int64_t> times = evimo_mask_times((fs::path(dir) / "dataset_info.npz").string(),
+                                                  has_meta, (fs::path(dir) / "meta.txt").string(),
+                                                  keys.size(), ev, "dataset_mask.npz", meta);
     for (size_t i = 0; i < keys.size(); ++i) {
       NpyArray m = masks.get(keys[i]);
       if (m.shape.size() != 2 || m.descr[1] == 'f')

@@ -5,7 +5,10 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 
+#include "core/events/formats/pickle.h"
+#include "core/util/byte_source.h"
 #include "core/util/error.h"
 
 namespace spikems {
@@ -175,6 +178,47 @@ CameraIntrinsics evimo_intrinsics(const NpyArray& K, const NpyArray* D, const st
   c.cy = k[5];
   if (D) c.distortion = D->to<double>();
   return c;
+}
+
+std::vector<int64_t> evimo_mask_times(const std::string& npz_path, bool has_meta,
+                                      const std::string& meta_txt, size_t count,
+                                      const EventStream& ev, const std::string& mask_name,
+                                      nlohmann::json& info) {
+  // The times a meta dict's 'frames' list gives, which must describe every mask frame.
+  auto listed = [&](const nlohmann::json& meta, const std::string& src) {
+    auto frames = evimo_frames_from_meta(meta, src);
+    if (frames.size() != count)
+      fail(src, "",
+           std::to_string(frames.size()) + " frames listed, " + mask_name + " has " +
+               std::to_string(count));
+    std::vector<int64_t> times;
+    for (const auto& f : frames) times.push_back(f.t_us);
+    return times;
+  };
+  if (has_meta) {
+    try {
+      auto times = listed(unpickle_npz_member(npz_path, "meta"), npz_path + ":meta");
+      info["mask_times"] = "meta";
+      return times;
+    } catch (const Error& e) {
+      info["meta_error"] = e.what();
+    }
+  }
+  std::error_code ec;
+  if (!meta_txt.empty() && std::filesystem::is_regular_file(meta_txt, ec)) {
+    auto bytes = read_file_bytes(meta_txt);
+    info["mask_times"] = "meta.txt";
+    return listed(parse_python_literal(std::string(bytes.begin(), bytes.end()), meta_txt),
+                  meta_txt);
+  }
+  std::vector<int64_t> times;
+  for (size_t i = 0; i < count; ++i)
+    times.push_back(ev.empty()
+                        ? 0
+                        : ev.t_first() + std::llround((double(i) + 0.5) * double(ev.duration_us()) /
+                                                      double(count)));
+  info["mask_times"] = "uniform-estimate";
+  return times;
 }
 
 }  // namespace spikems

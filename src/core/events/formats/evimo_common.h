@@ -37,4 +37,14 @@ SensorSize evimo_sensor(const ReadOptions& opt, const EventStream& ev, int mask_
 // K (3x3) and D (4 or 5) arrays to intrinsics.
 CameraIntrinsics evimo_intrinsics(const NpyArray& K, const NpyArray* D, const std::string& src);
 
+// Mask frame times (us) of `count` frames, from the first source that works: the pickled `meta`
+// member of npz_path (when has_meta), the Python-literal file meta_txt ("" or absent: skipped),
+// else spread evenly over the events: t_first + (i + 0.5) * duration / count. `info` gets
+// "mask_times" ("meta", "meta.txt" or "uniform-estimate") and, when meta was there but could not
+// be used, "meta_error". mask_name names the mask source in a count mismatch.
+std::vector<int64_t> evimo_mask_times(const std::string& npz_path, bool has_meta,
+                                      const std::string& meta_txt, size_t count,
+                                      const EventStream& ev, const std::string& mask_name,
+                                      nlohmann::json& info);
+
 }  // namespace spikems
