@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "common/test_paths.h"
+#include "core/eval/evaluation.h"
 #include "core/model/model_file.h"
 #include "core/util/error.h"
 #include "train/trainer/train_config.h"
@@ -99,7 +100,8 @@ TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
        {"flip_x", "flip_y", "polarity_swap", "drop_max", "threshold_jitter", "noise_hz_max"})
     ov.push_back(std::string("sample.") + k + "=0.0");
   for (const char* k : {"sample.centred_fraction=1.0", "optim.lr=0.003", "loss.kind=bce",
-                        "loss.floor_weight=0.0", "loss.activity_weight=0.0", "run.val_every=100"})
+                        "loss.floor_weight=0.0", "loss.activity_weight=0.0", "run.val_every=100",
+                        "run.val_full_s=0.2", "run.val_full_window_ms=20", "sample.warmup_ms=30"})
     ov.push_back(k);
   TrainConfig cfg = load_train_config(config_path(), ov);
   TrainRunOptions ro;
@@ -119,6 +121,19 @@ TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
   ASSERT_EQ(val.size(), 2u);  // before training (step 0) and at the end
   EXPECT_EQ(val[0]["step"], 0);
   EXPECT_GT(val[1]["iou"].get<double>(), val[0]["iou"].get<double>() + 8.0);
+  // Whole-sensor validation is `spikems eval`'s number for the model of that step.
+  EvalOptions eo;
+  eo.model_path = dir + "/model.safetensors";
+  eo.data = {data + "/seq_0000.h5"};
+  eo.windows_us = {20000};
+  eo.max_seconds = 0.2;
+  const WindowSummary w = evaluate(eo).models.at(0).datasets.at(0).windows.at(0);
+  ASSERT_GT(w.windows, 0u);
+  EXPECT_NEAR(val[1]["full_iou"].get<double>(), w.iou_mean, 1e-9);
+  EXPECT_EQ(val[1]["full_windows"].get<size_t>(), w.windows);
+  EXPECT_GT(val[1]["full_iou"].get<double>(), val[0]["full_iou"].get<double>() + 5.0);
+  EXPECT_EQ(r.best_val_iou,
+            std::max(val[0]["full_iou"].get<double>(), val[1]["full_iou"].get<double>()));
   // The model file every command reads, with its provenance.
   ModelSpec m = load_model(dir + "/model.safetensors");
   EXPECT_EQ(m.training["steps"], 100);

@@ -244,6 +244,8 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("run", "checkpoint_every", c.checkpoint_every);
   b.bind("run", "val_samples", c.val_samples);
   b.bind("run", "prefetch", c.prefetch);
+  b.bind("run", "val_full_s", c.val_full_s);
+  b.bind("run", "val_full_window_ms", c.val_full_window_ms);
   b.check_unknown();
 
   one_of(b, "model", "neurons", c.neurons, {"iir", "fir"});
@@ -291,6 +293,11 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
                       {"prefetch", c.prefetch}})
     if (v < 1) b.bad("run", k, "must be at least 1");
   if (c.val_samples < 0) b.bad("run", "val_samples", "must not be negative");
+  if (!(c.val_full_s >= 0)) b.bad("run", "val_full_s", "must not be negative");
+  if (!(c.val_full_window_ms > 0)) b.bad("run", "val_full_window_ms", "must be positive");
+  if (c.val_full_s > 0 &&
+      std::llround(c.val_full_window_ms * 1000) % std::llround(step_ms * 1000) != 0)
+    b.bad("run", "val_full_window_ms", "must be a multiple of sample.step_ms");
   c.source = b.resolved();
   return c;
 }

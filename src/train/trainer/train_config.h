@@ -51,6 +51,10 @@ struct TrainConfig {
   int threads = 0;             // 0: all cores
   std::string device = "cpu";  // cpu | cuda
   int log_every = 10, val_every = 100, checkpoint_every = 25, val_samples = 64, prefetch = 4;
+  // Whole-sensor validation as `spikems eval` scores it (streaming runtime, continuous state,
+  // causal windows) on the first val_full_s seconds of every val sequence; 0: off. When on, the
+  // best model is chosen by its IoU at val_full_window_ms: crop scores flatter (docs/results.md).
+  double val_full_s = 0, val_full_window_ms = 20;
 
   nlohmann::json source;  // the resolved configuration (every key), as JSON
 };
