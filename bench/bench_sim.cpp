@@ -1,6 +1,7 @@
 // Simulator throughput: wall seconds per simulated second of the `mod` preset and events per
 // second, adaptive steps against the fixed-step baseline (every step = dt_min) in the same
-// program, plus the cost of one rendered frame. Run:
+// program, plus the cost of one rendered frame and the renderer against ReferenceRenderer (the
+// first, per-pixel implementation) on the same scenes. Run:
 //   build/bench_sim --benchmark_counters_tabular=true
 // Figures: docs/performance.md.
 #include <benchmark/benchmark.h>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "core/sim/presets.h"
+#include "core/sim/reference_renderer.h"
 #include "core/sim/renderer.h"
 #include "core/sim/simulate.h"
 
@@ -96,8 +98,58 @@ void BM_RenderFrame(benchmark::State& state) {
       double(cam.width) * cam.height * 1e-6, benchmark::Counter::kIsIterationInvariantRate);
 }
 
+// Renderer against ReferenceRenderer on three mod scenes (seeds sequence_seed(2026, 0..2)),
+// 20 frames each over 0.2 s, alternating the two in every iteration so that load from other
+// processes hits both alike. Counters: frames and Mpixels per second (thread CPU time of the
+// rendering thread, or wall time with T > 1) and the speed-up.
+void BM_RendererVsReference(benchmark::State& state) {
+  const int threads = int(state.range(0));
+  SimConfig cfg = preset_config("mod");
+  Camera cam = camera_from_config(cfg);
+  std::vector<Scene> scenes;
+  for (int seq = 0; seq < 3; ++seq) {
+    std::mt19937_64 rng(sequence_seed(2026, seq));
+    scenes.push_back(make_random_scene(cfg, cam, rng));
+  }
+  auto clock = [threads] {
+    if (threads > 1)
+      return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+          .count();
+    timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + double(ts.tv_nsec) * 1e-9;
+  };
+  double s_new = 0, s_ref = 0, frames = 0;
+  Frame f;
+  for (auto _ : state) {
+    for (const Scene& sc : scenes) {
+      Renderer r(sc, cam, cfg.log_eps);
+      ReferenceRenderer ref(sc, cam, cfg.log_eps);
+      for (int i = 0; i < 20; ++i) {
+        const double t = 0.01 * i;
+        double c0 = clock();
+        r.render(t, f, threads);
+        double c1 = clock();
+        ref.render(t, f, threads);
+        double c2 = clock();
+        benchmark::DoNotOptimize(f.log_intensity.data());
+        s_new += c1 - c0;
+        s_ref += c2 - c1;
+        frames += 1;
+      }
+    }
+  }
+  const double px = double(cam.width) * cam.height * 1e-6;
+  state.counters["new_frames_per_s"] = frames / s_new;
+  state.counters["ref_frames_per_s"] = frames / s_ref;
+  state.counters["new_Mpixels_per_s"] = frames * px / s_new;
+  state.counters["ref_Mpixels_per_s"] = frames * px / s_ref;
+  state.counters["speedup"] = s_ref / s_new;
+}
+
 }  // namespace
 
+BENCHMARK(BM_RendererVsReference)->Arg(1)->Arg(2)->Iterations(3)->Unit(benchmark::kSecond);
 BENCHMARK(BM_ModAdaptive)->Arg(2)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 BENCHMARK(BM_ModFixedStep)->Arg(2)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 BENCHMARK(BM_ModFixedStep200us)->Arg(2)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();

@@ -1,7 +1,8 @@
-// Per-pixel ray casting of a Scene: for every pixel the nearest surface gives the log
-// intensity L = log(eps + I), the object id (0 = background or occluder) and the depth.
-// Per frame, each shape's pose is turned into a camera->local transform once, so a pixel costs
-// a 3x3 product and one analytic intersection per shape (with a screen-space box cull).
+// Ray casting of a Scene: for every pixel the nearest surface gives the log intensity
+// L = log(eps + I), the object id (0 = background or occluder) and the depth. Per frame, each
+// shape's pose is turned into a camera->local transform once; then every row is processed in
+// vectorised passes (intersection per shape over its screen span, shading, texture sampling,
+// log). Bit-identical to ReferenceRenderer, the first per-pixel implementation.
 #pragma once
 
 #include <cstdint>
@@ -30,7 +31,9 @@ class Renderer {
   const Scene& scene_;
   Camera cam_;
   float log_eps_;
-  std::vector<float> rx_, ry_;  // (x - cx)/fx per column, (y - cy)/fy per row
+  std::vector<float> rx_, ry_;        // (x - cx)/fx per column, (y - cy)/fy per row
+  std::vector<const float*> levels_;  // texture t, mip level l: levels_[t * n_levels_ + l]
+  int n_levels_ = 1;
 };
 
 }  // namespace spikems::sim

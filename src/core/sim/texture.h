@@ -38,6 +38,9 @@ class Texture {
   // Plain bilinear lookup at one level (reference for tests).
   float bilinear(int level, float u, float v) const;
   int levels() const { return int(mips_.size()); }
+  // Texels of one mip level ((kTile >> level)^2, row-major), for the renderer's row sampler,
+  // which evaluates sample()'s expressions for a row of pixels at once (tested equal).
+  const float* level_data(int level) const { return mips_[size_t(level)].data(); }
   const TextureParams& params() const { return params_; }
 
  private:
