@@ -94,8 +94,11 @@ inline float intersect(const Prepared& p, const V3& d) {
       if (p.s->kind == ShapeKind::Quad)
         return in_outline(p.s->outline, px, py, h.x, h.y) ? t : kFar;
       if (std::fabs(px) > h.x || std::fabs(py) > h.y) return kFar;
+      if (p.s->net_pattern == NetPattern::Foliage) return p.s->leaf_at(px, py) ? t : kFar;
       const float sp = float(p.s->net_spacing), bar = float(p.s->net_bar);
-      float mx = px / sp - fast_floor(px / sp), my = py / sp - fast_floor(py / sp);
+      float mx = px / sp - fast_floor(px / sp);
+      if (p.s->net_pattern == NetPattern::Bars) return mx * sp < bar ? t : kFar;
+      float my = py / sp - fast_floor(py / sp);
       return (mx * sp < bar || my * sp < bar) ? t : kFar;
     }
     case ShapeKind::Room: {

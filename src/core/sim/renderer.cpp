@@ -132,9 +132,12 @@ inline float hit_quad_star(const Prepared& p, const V3& d) {
 inline float hit_net(const Prepared& p, const V3& d) {
   float px, py;
   const float t = hit_plane(p, d, px, py);
+  const bool inside = (std::fabs(px) <= p.h.x) & (std::fabs(py) <= p.h.y);
+  if (p.s->net_pattern == NetPattern::Foliage)  // `inside` first: leaf_at reads a bounded field
+    return (inside && p.s->leaf_at(px, py)) ? t : kFar;
   const float sp = float(p.s->net_spacing), bar = float(p.s->net_bar);
   const float mx = px / sp - fast_floor(px / sp), my = py / sp - fast_floor(py / sp);
-  const bool inside = (std::fabs(px) <= p.h.x) & (std::fabs(py) <= p.h.y);
+  if (p.s->net_pattern == NetPattern::Bars) return sel(inside & (mx * sp < bar), t, kFar);
   return sel(inside & ((mx * sp < bar) | (my * sp < bar)), t, kFar);
 }
 
@@ -494,8 +497,9 @@ void Renderer::render(double t_s, Frame& out, int threads) const {
     p.h = {float(s.half.x), float(s.half.y), float(s.half.z)};
     p.surface = uint8_t(std::min<size_t>(si + 1, 255));
     p.x0 = 0, p.x1 = W - 1, p.y0 = 0, p.y1 = H - 1;
-    if (s.kind == ShapeKind::Ellipsoid || s.kind == ShapeKind::Box ||
-        (s.kind == ShapeKind::Quad && s.id != 0)) {
+    // Every finite shape (objects, static look-alikes, background planes: a box covering the
+    // screen costs nothing); the room and the occluders span the view.
+    if (s.kind == ShapeKind::Ellipsoid || s.kind == ShapeKind::Box || s.kind == ShapeKind::Quad) {
       // Conservative screen box of the bounding sphere (x/z over a box is extremal at corners).
       Vec3 c = Rwc.transposed() * (op.t - cp.t);
       double r = s.half.norm() * 1.01 + 1e-3;

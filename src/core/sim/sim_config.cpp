@@ -1,6 +1,7 @@
 #include "core/sim/sim_config.h"
 
 #include <toml++/toml.h>
+#include <algorithm>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -185,6 +186,9 @@ SimConfig parse_sim_config(const std::string& text, const std::string& source) {
     s.range("depth", c.object_depth);
     s.range("speed", c.object_speed);
     s.range("spin", c.object_spin);
+    s.strings("motion", c.object_motion);
+    s.integer("static_min", c.static_min);
+    s.integer("static_max", c.static_max);
     s.check_unknown();
   }
   {
@@ -193,13 +197,22 @@ SimConfig parse_sim_config(const std::string& text, const std::string& source) {
     s.range("depth", c.net_depth);
     s.range("spacing", c.net_spacing);
     s.range("bar", c.net_bar);
+    s.strings("kind", c.occluder_kinds);
+    s.range("leaf_size", c.leaf_size);
+    s.range("leaf_cover", c.leaf_cover);
     s.check_unknown();
+    const auto* t = root["occluder"].as_table();
+    if (c.net && t && t->contains("kind"))
+      fail(source, "[occluder] net", "give either net = true or kind = [...], not both");
+    if (c.net) c.occluder_kinds = {"net"};
   }
   {
     auto s = sec("camera");
     s.range("speed", c.camera_speed);
     s.range("angular_speed", c.camera_angular_speed);
     s.range("frequency_hz", c.camera_frequency_hz);
+    s.strings("motion", c.camera_motion);
+    s.range("shake_frequency_hz", c.shake_frequency_hz);
     s.check_unknown();
   }
   {
@@ -284,6 +297,24 @@ void validate_sim_config(const SimConfig& c, const std::string& src) {
     need(s == "sphere" || s == "ellipsoid" || s == "box" || s == "disc" || s == "rect" ||
              s == "star",
          "[objects] shapes", "unknown shape '" + s + "' (sphere ellipsoid box disc rect star)");
+  need(c.static_min >= 0 && c.static_max >= c.static_min && c.static_max <= 64,
+       "[objects] static_min/static_max", "need 0 <= static_min <= static_max <= 64");
+  need(c.leaf_size.lo > 0, "[occluder] leaf_size", "must be positive");
+  need(c.leaf_cover.lo > 0 && c.leaf_cover.hi < 1, "[occluder] leaf_cover",
+       "must be within (0, 1)");
+  need(c.shake_frequency_hz.lo > 0, "[camera] shake_frequency_hz", "must be > 0");
+  auto one_of = [&](const std::vector<std::string>& list, const char* key,
+                    const std::vector<std::string>& names) {
+    std::string all;
+    for (const auto& n : names) all += (all.empty() ? "" : " ") + n;
+    need(!list.empty(), key, "must list at least one of: " + all);
+    for (const auto& v : list)
+      need(std::find(names.begin(), names.end(), v) != names.end(), key,
+           "unknown kind '" + v + "' (" + all + ")");
+  };
+  one_of(c.object_motion, "[objects] motion", {"linear", "curved", "ballistic", "spin"});
+  one_of(c.camera_motion, "[camera] motion", {"handheld", "translate", "rotate", "shake"});
+  one_of(c.occluder_kinds, "[occluder] kind", {"none", "net", "bars", "foliage"});
   for (const auto& t : c.textures)
     need(t == "noise" || t == "stripes" || t == "checkers" || t == "grid" || t == "blobs" ||
              t == "natural" || t == "uniform",

@@ -58,17 +58,33 @@ struct SimConfig {
   Range object_depth{1.0, 3.5};  // distance in front of the camera at mid-sequence (m)
   Range object_speed{0.3, 2.0};  // m/s
   Range object_spin{0.0, 3.0};   // rad/s
+  // Motion kinds, one drawn per object: linear (drift + sway), curved (arc), ballistic (drift
+  // + gravity), spin (spinning in place, small drift).
+  std::vector<std::string> object_motion{"linear"};
+  // Static look-alikes: objects drawn from the same shapes/sizes/depths/textures, world-fixed,
+  // labelled background (id 0), so that a network learns motion rather than object-ness.
+  int static_min = 0, static_max = 0;
 
   // [occluder]
   bool net = false;
   Range net_depth{0.4, 0.8};
   Range net_spacing{0.04, 0.08};  // m between bars
   Range net_bar{0.004, 0.01};     // bar width (m)
+  // Occluder kinds, one drawn per sequence: none, net (grid), bars (parallel bars, random
+  // angle; spacing/bar as the net), foliage (leaves: thresholded low-frequency noise).
+  // `net = true` means kind = ["net"].
+  std::vector<std::string> occluder_kinds{"none"};
+  Range leaf_size{0.02, 0.06};  // foliage: feature size of the leaf mask (m)
+  Range leaf_cover{0.4, 0.7};   // foliage: fraction of the plane covered by leaves
 
   // [camera]
   Range camera_speed{0.0, 0.6};          // m/s (peak of the sinusoid sum, per axis scale)
   Range camera_angular_speed{0.0, 1.0};  // rad/s
   Range camera_frequency_hz{0.2, 1.5};
+  // Camera motion kinds, one drawn per sequence: handheld (6-DoF sinusoids), translate (no
+  // rotation), rotate (no translation), shake (6-DoF at shake_frequency_hz, same peak speeds).
+  std::vector<std::string> camera_motion{"handheld"};
+  Range shake_frequency_hz{3.0, 10.0};
 
   // [output]
   double val_fraction = 0.1, test_fraction = 0.1;

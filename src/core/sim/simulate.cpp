@@ -207,6 +207,7 @@ Recording simulate_scene(const Scene& scene, const Camera& cam, const SimConfig&
       "of the two samples shows background; noise events 0";
   meta["pose_convention"] =
       "camera/object to world; world = initial camera frame (x right, y down, z forward)";
+  meta["camera_motion"] = scene.camera_motion;
   meta["objects"] = nlohmann::json::parse(scene.describe_json());
   rec.metadata_json = meta.dump();
   if (stats) *stats = st;

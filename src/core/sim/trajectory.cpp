@@ -21,7 +21,8 @@ Vec3 sum_sinusoids(const std::vector<Sinusoid>& terms, double t) {
 Pose Trajectory::at(double t) const {
   double dt = t - t_ref;
   Pose p;
-  p.t = position + velocity * dt + sum_sinusoids(wobble_translation, t);
+  p.t = position + velocity * dt + acceleration * (0.5 * dt * dt) +
+        sum_sinusoids(wobble_translation, t);
   Quat q = Quat::from_rotvec(spin * dt) * orientation;
   if (!wobble_rotation.empty()) q = q * Quat::from_rotvec(sum_sinusoids(wobble_rotation, t));
   p.q = q.normalized();
@@ -35,7 +36,8 @@ bool Trajectory::is_static() const {
       if (!zero(s.amplitude)) return false;
     return true;
   };
-  return zero(velocity) && zero(spin) && still(wobble_translation) && still(wobble_rotation);
+  return zero(velocity) && zero(acceleration) && zero(spin) && still(wobble_translation) &&
+         still(wobble_rotation);
 }
 
 Trajectory random_camera_trajectory(std::mt19937_64& rng, double speed, double angular_speed,

@@ -1,5 +1,6 @@
-// Smooth motions: a linear drift plus a sum of sinusoids for translation, a constant spin
-// plus a sum of sinusoids (as a rotation vector) for orientation. Infinitely differentiable,
+// Smooth motions: a drift with constant acceleration (gravity for throws) plus a sum of
+// sinusoids for translation, a constant spin plus a sum of sinusoids (as a rotation vector)
+// for orientation. Infinitely differentiable,
 // cheap to evaluate at any time, so the renderer can sample any instant.
 #pragma once
 
@@ -18,10 +19,11 @@ struct Sinusoid {
 };
 
 struct Trajectory {
-  Vec3 position;     // at t = t_ref
-  Vec3 velocity;     // m/s
-  Quat orientation;  // at t = t_ref
-  Vec3 spin;         // world-frame angular velocity (rad/s)
+  Vec3 position;      // at t = t_ref (plus the sinusoids' value there)
+  Vec3 velocity;      // m/s, at t = t_ref
+  Vec3 acceleration;  // m/s^2 (constant)
+  Quat orientation;   // at t = t_ref
+  Vec3 spin;          // world-frame angular velocity (rad/s)
   std::vector<Sinusoid> wobble_translation, wobble_rotation;
   double t_ref = 0;  // seconds
 
