@@ -20,7 +20,10 @@ void EventGenerator::reset(const float* L, const uint16_t* ids, int64_t t_us) {
   ref_.assign(L, L + n);
   if (p_.random_initial_reference) {
     std::uniform_real_distribution<float> U(0.f, 1.f);
-    for (size_t i = 0; i < n; ++i) ref_[i] = L[i] - U(rng_) * px_.c_on[i];
+    for (size_t i = 0; i < n; ++i) {
+      const float lo = p_.balanced_initial_reference ? -px_.c_off[i] : 0.f;
+      ref_[i] = L[i] - (lo + U(rng_) * (px_.c_on[i] - lo));
+    }
   }
   last_event_us_.assign(n, std::numeric_limits<int64_t>::min() / 2);
   t_us_ = t_us;
@@ -30,11 +33,15 @@ float EventGenerator::step(const float* L, const uint16_t* ids, int64_t t1, Even
                            int threads) {
   const int64_t t0 = t_us_;
   const double dt_s = double(t1 - t0) * 1e-6;
-  const float leak = float(p_.leak_hz * p_.threshold * dt_s);  // reference drift this step
-  const float alpha =
-      p_.photoreceptor_cutoff_hz > 0
-          ? float(1 - std::exp(-dt_s * 2 * 3.141592653589793 * p_.photoreceptor_cutoff_hz))
-          : 1.f;
+  // Reference drift this step: leak_hz ON events per second at the nominal ON threshold.
+  const float leak = float(p_.leak_hz * p_.c_on() * dt_s);
+  const bool lowpass = p_.photoreceptor_cutoff_hz > 0;
+  const double w = dt_s * 2 * 3.141592653589793 * p_.photoreceptor_cutoff_hz;  // dt / tau
+  const float alpha = lowpass ? float(1 - std::exp(-w)) : 1.f;
+  // Light-dependent bandwidth: dt / tau scales with (I + floor) / (1 + floor), I from the input.
+  const bool by_light = lowpass && p_.photoreceptor_light_dependent;
+  const float w_scaled = float(w / (1 + kIntensityFloor)), eps = float(p_.log_eps),
+              floor_i = float(kIntensityFloor);
   const int64_t refr = p_.refractory_us;
   const int chunks = std::max(1, threads);
   std::vector<std::vector<Event>> part(static_cast<size_t>(chunks));
@@ -46,7 +53,10 @@ float EventGenerator::step(const float* L, const uint16_t* ids, int64_t t1, Even
     for (int y = y_begin; y < y_end; ++y) {
       for (int x = 0; x < w_; ++x) {
         const size_t i = size_t(y) * size_t(w_) + size_t(x);
-        const float L0 = last_L_[i], L1 = L0 + alpha * (L[i] - L0);
+        float a_i = alpha;
+        if (by_light)
+          a_i = 1.f - std::exp(-w_scaled * (std::max(std::exp(L[i]) - eps, 0.f) + floor_i));
+        const float L0 = last_L_[i], L1 = L0 + a_i * (L[i] - L0);
         mx = std::max(mx, std::fabs(L1 - L0));
         const float ref_end = ref_[i] - leak;
         const float a = L0 - ref_[i], b = L1 - ref_end;
@@ -91,7 +101,7 @@ float EventGenerator::step(const float* L, const uint16_t* ids, int64_t t1, Even
   for (auto& v : part) all.insert(all.end(), v.begin(), v.end());
   // Noise comes from this sequence's own generator, after the pixel pass: deterministic.
   EventStream noise;
-  add_poisson_noise(w_, h_, p_, px_, t0, t1, rng_, noise);
+  add_poisson_noise(w_, h_, p_, px_, t0, t1, rng_, noise, L);
   for (size_t k = 0; k < noise.size(); ++k) all.push_back(noise[k]);
   std::stable_sort(all.begin(), all.end(),
                    [](const Event& u, const Event& v) { return u.t < v.t; });

@@ -7,7 +7,10 @@
 //
 // With photoreceptor_cutoff_hz > 0, L first passes a first-order low-pass filter (exact
 // exponential update per step, time constant 1 / (2 pi f_c)), which spreads the events of a
-// sharp edge over a few ms as the finite bandwidth of a real pixel does (v2e).
+// sharp edge over a few ms as the finite bandwidth of a real pixel does (v2e). With
+// photoreceptor_light_dependent the cutoff of each pixel scales with its input intensity,
+// f_c (I + I_floor) / (1 + I_floor), I = exp(L) - log_eps, I_floor = 20/255 (v2e): dark pixels
+// respond later. ON and OFF thresholds differ with threshold_asymmetry (sensor_noise.h).
 //
 // Labels: the event takes the object id the pixel shows in the sample nearer to the crossing
 // time; when one of the two samples shows background (0) and the other an object, the object's

@@ -6,8 +6,9 @@
 
 namespace spikems::sim {
 
-EventStats compute_event_stats(const EventStream& ev) {
+EventStats compute_event_stats(const EventStream& ev, double gap_ms) {
   EventStats s;
+  s.edge_gap_ms = gap_ms;
   const size_t n = ev.size();
   s.events = double(n);
   if (n == 0 || !ev.sensor.known()) return s;
@@ -38,7 +39,7 @@ EventStats compute_event_stats(const EventStream& ev) {
       ++pairs;
       bool sp = ev.p[a] == ev.p[b];
       same += sp;
-      if (sp && d < 1.0) {
+      if (sp && d < gap_ms) {
         ++run;
       } else {
         ++runs, run_events += run;
@@ -49,8 +50,9 @@ EventStats compute_event_stats(const EventStream& ev) {
     k = e;
   }
   s.active_pixel_fraction = double(active) / npix;
+  s.rate_per_active_pixel_hz = s.events / s.duration_s / double(active);
   s.same_polarity_fraction = pairs ? double(same) / double(pairs) : 0;
-  s.burst_mean = runs ? double(run_events) / double(runs) : 0;
+  s.edge_width = runs ? double(run_events) / double(runs) : 0;
   if (!isi.empty()) {
     auto q = [&](double f) {
       size_t i = std::min(isi.size() - 1, size_t(f * double(isi.size())));
@@ -70,8 +72,8 @@ std::string stats_table(const std::vector<std::pair<std::string, EventStats>>& c
   out += "\n|---|";
   for (size_t i = 0; i < cols.size(); ++i) out += "---|";
   out += "\n";
-  auto row = [&](const char* name, auto get, const char* fmt) {
-    out += std::string("| ") + name + " |";
+  auto row = [&](const std::string& name, auto get, const char* fmt) {
+    out += "| " + name + " |";
     for (const auto& c : cols) {
       char buf[64];
       std::snprintf(buf, sizeof buf, fmt, get(c.second));
@@ -91,6 +93,9 @@ std::string stats_table(const std::vector<std::pair<std::string, EventStats>>& c
       "active pixels (%)", [](const EventStats& s) { return 100 * s.active_pixel_fraction; },
       "%.1f");
   row(
+      "rate per active pixel (Hz)", [](const EventStats& s) { return s.rate_per_active_pixel_hz; },
+      "%.2f");
+  row(
       "ON events (%)", [](const EventStats& s) { return 100 * s.on_fraction; }, "%.1f");
   row(
       "inter-event interval p10 (ms)", [](const EventStats& s) { return s.isi_p10_ms; }, "%.3f");
@@ -103,8 +108,9 @@ std::string stats_table(const std::vector<std::pair<std::string, EventStats>>& c
       "same polarity as previous at pixel (%)",
       [](const EventStats& s) { return 100 * s.same_polarity_fraction; }, "%.1f");
   row(
-      "burst size (events per edge, < 1 ms apart)",
-      [](const EventStats& s) { return s.burst_mean; }, "%.2f");
+      "edge width (same-polarity run, gaps < " +
+          std::to_string(int(cols.empty() ? kEdgeGapMs : cols[0].second.edge_gap_ms)) + " ms)",
+      [](const EventStats& s) { return s.edge_width; }, "%.2f");
   return out;
 }
 

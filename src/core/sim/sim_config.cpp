@@ -66,6 +66,34 @@ class Section {
       if (out.lo > out.hi) bad(key, "[low, high] with low <= high");
     }
   }
+  // A number, or [low, high] recorded in ranges (out = midpoint meanwhile).
+  void num_or_range(const char* key, double& out,
+                    std::vector<std::pair<std::string, Range>>& ranges) {
+    if (auto* n = get(key)) {
+      if (n->is_array()) {
+        Range r;
+        range(key, r);
+        ranges.emplace_back(key, r);
+        out = 0.5 * (r.lo + r.hi);
+      } else if (auto v = n->value<double>()) {
+        out = *v;
+      } else {
+        bad(key, "a number or [low, high]");
+      }
+    }
+  }
+  // [low, high], or a number x meaning [x, x].
+  void range_or_num(const char* key, Range& out) {
+    if (auto* n = get(key)) {
+      if (n->is_array()) {
+        range(key, out);
+      } else if (auto v = n->value<double>()) {
+        out = {*v, *v};
+      } else {
+        bad(key, "a number or [low, high]");
+      }
+    }
+  }
   void strings(const char* key, std::vector<std::string>& out) {
     if (auto* n = get(key)) {
       auto* a = n->as_array();
@@ -150,15 +178,22 @@ SimConfig parse_sim_config(const std::string& text, const std::string& source) {
   {
     auto s = sec("events");
     s.str("noise", c.noise);
-    s.num("threshold", c.threshold);
-    s.num("threshold_sigma", c.threshold_sigma);
-    s.integer("refractory_us", c.refractory_us);
-    s.num("leak_hz", c.leak_hz);
-    s.num("shot_hz", c.shot_hz);
-    s.num("hot_pixel_fraction", c.hot_pixel_fraction);
+    auto& rs = c.event_ranges;
+    s.num_or_range("threshold", c.threshold, rs);
+    s.num_or_range("threshold_sigma", c.threshold_sigma, rs);
+    double refr = double(c.refractory_us);
+    s.num_or_range("refractory_us", refr, rs);
+    c.refractory_us = int64_t(std::llround(refr));
+    s.num_or_range("leak_hz", c.leak_hz, rs);
+    s.num_or_range("shot_hz", c.shot_hz, rs);
+    s.num_or_range("hot_pixel_fraction", c.hot_pixel_fraction, rs);
     s.num("hot_pixel_hz", c.hot_pixel_hz);
     s.num("log_eps", c.log_eps);
-    s.num("photoreceptor_cutoff_hz", c.photoreceptor_cutoff_hz);
+    s.num_or_range("photoreceptor_cutoff_hz", c.photoreceptor_cutoff_hz, rs);
+    s.num_or_range("threshold_asymmetry", c.threshold_asymmetry, rs);
+    s.boolean("photoreceptor_light_dependent", c.photoreceptor_light_dependent);
+    s.num("shot_intensity_factor", c.shot_intensity_factor);
+    s.str("initial_reference", c.initial_reference);
     s.check_unknown();
   }
   {
@@ -175,6 +210,8 @@ SimConfig parse_sim_config(const std::string& text, const std::string& source) {
     s.range("texture_tile_m", c.texture_tile_m);
     s.range("illumination", c.illumination);
     s.range("ambient", c.ambient);
+    s.range_or_num("flicker_hz", c.flicker_hz);
+    s.range_or_num("flicker_depth", c.flicker_depth);
     s.check_unknown();
   }
   {
@@ -246,9 +283,84 @@ void apply_noise_setting(SimConfig& c, const std::string& setting) {
   c.shot_hz = 0;
   c.hot_pixel_fraction = 0;
   c.photoreceptor_cutoff_hz = 0;
+  std::erase_if(c.event_ranges, [](const auto& kv) {
+    return kv.first != "threshold" && kv.first != "threshold_asymmetry";
+  });
+}
+
+namespace {
+
+void set_event_key(SimConfig& c, const std::string& k, double v) {
+  if (k == "threshold")
+    c.threshold = v;
+  else if (k == "threshold_sigma")
+    c.threshold_sigma = v;
+  else if (k == "threshold_asymmetry")
+    c.threshold_asymmetry = v;
+  else if (k == "refractory_us")
+    c.refractory_us = int64_t(std::llround(v));
+  else if (k == "leak_hz")
+    c.leak_hz = v;
+  else if (k == "shot_hz")
+    c.shot_hz = v;
+  else if (k == "hot_pixel_fraction")
+    c.hot_pixel_fraction = v;
+  else if (k == "photoreceptor_cutoff_hz")
+    c.photoreceptor_cutoff_hz = v;
+  else
+    fail("[events] " + k, "", "does not accept [low, high]");
+}
+
+const Range* find_range(const SimConfig& c, const std::string& k) {
+  for (const auto& [name, r] : c.event_ranges)
+    if (name == k) return &r;
+  return nullptr;
+}
+
+}  // namespace
+
+bool has_sequence_ranges(const SimConfig& c) {
+  return !c.event_ranges.empty() || c.flicker_hz.lo != c.flicker_hz.hi ||
+         c.flicker_depth.lo != c.flicker_depth.hi;
+}
+
+SimConfig draw_sequence_config(const SimConfig& c, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> U(0, 1);
+  SimConfig out = c;
+  for (const char* k : kDrawnEventKeys) {
+    const double u = U(rng);  // drawn for fixed keys too: the order never shifts
+    if (const Range* r = find_range(c, k)) set_event_key(out, k, r->lo + (r->hi - r->lo) * u);
+  }
+  out.event_ranges.clear();
+  const double f = c.flicker_hz.lo + (c.flicker_hz.hi - c.flicker_hz.lo) * U(rng);
+  const double d = c.flicker_depth.lo + (c.flicker_depth.hi - c.flicker_depth.lo) * U(rng);
+  out.flicker_hz = {f, f};
+  out.flicker_depth = {d, d};
+  out.flicker_phase = 2 * 3.141592653589793 * U(rng);
+  return out;
 }
 
 void validate_sim_config(const SimConfig& c, const std::string& src) {
+  if (!c.event_ranges.empty()) {
+    // Each range end must be valid with the other keys as they are, and mismatch must stay
+    // below the smallest threshold.
+    SimConfig base = c;
+    base.event_ranges.clear();
+    for (const auto& [k, r] : c.event_ranges)
+      for (double v : {r.lo, r.hi}) {
+        SimConfig e = base;
+        set_event_key(e, k, v);
+        validate_sim_config(e, src);
+      }
+    const Range* t = find_range(c, "threshold");
+    const Range* sg = find_range(c, "threshold_sigma");
+    SimConfig worst = base;
+    worst.threshold = t ? t->lo : c.threshold;
+    worst.threshold_sigma = sg ? sg->hi : c.threshold_sigma;
+    validate_sim_config(worst, src);
+    validate_sim_config(base, src);
+    return;
+  }
   auto need = [&](bool ok, const char* key, const std::string& why) {
     if (!ok) fail(src, key, why);
   };
@@ -271,6 +383,16 @@ void validate_sim_config(const SimConfig& c, const std::string& src) {
        "must be in [0, 1]");
   need(c.log_eps > 0, "[events] log_eps", "must be > 0");
   need(c.photoreceptor_cutoff_hz >= 0, "[events] photoreceptor_cutoff_hz", "must be >= 0");
+  need(c.threshold_asymmetry >= -0.9 && c.threshold_asymmetry <= 0.9,
+       "[events] threshold_asymmetry", "must be in [-0.9, 0.9]");
+  need(c.initial_reference == "on_side" || c.initial_reference == "balanced",
+       "[events] initial_reference", "use on_side or balanced");
+  need(c.shot_intensity_factor >= 0 && c.shot_intensity_factor <= 1,
+       "[events] shot_intensity_factor", "must be in [0, 1]");
+  need(c.flicker_hz.lo >= 0 && c.flicker_hz.hi <= 1e4, "[scene] flicker_hz",
+       "must be within [0, 10000] Hz");
+  need(c.flicker_depth.lo >= 0 && c.flicker_depth.hi < 1, "[scene] flicker_depth",
+       "must be within [0, 1)");
   need(c.background == "room" || c.background == "planes", "[scene] background",
        "use room or planes");
   need(c.planes >= 1 && c.planes <= 16, "[scene] planes", "must be in 1..16");

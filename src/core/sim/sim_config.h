@@ -3,7 +3,9 @@
 #pragma once
 
 #include <cstdint>
+#include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace spikems::sim {
@@ -36,8 +38,16 @@ struct SimConfig {
   double shot_hz = 0.001;         // per-pixel shot-noise rate (each polarity half)
   double hot_pixel_fraction = 0;  // share of pixels that fire ON events at hot_pixel_hz
   double hot_pixel_hz = 50;
-  double log_eps = 0.01;               // L = log(eps + I), I in [0, 1]
-  double photoreceptor_cutoff_hz = 0;  // pixel bandwidth (first-order low-pass; 0 = off)
+  double log_eps = 0.01;                       // L = log(eps + I), I in [0, 1]
+  double photoreceptor_cutoff_hz = 0;          // pixel bandwidth (first-order low-pass; 0 = off)
+  double threshold_asymmetry = 0;              // C_on = C (1 + a), C_off = C (1 - a)
+  bool photoreceptor_light_dependent = false;  // cutoff x (I + 20/255) / (1 + 20/255) (v2e)
+  // Random reset state (noisy): "on_side" L - ref in [0, C_on), "balanced" (-C_off, C_on).
+  std::string initial_reference = "on_side";
+  double shot_intensity_factor = 1;  // shot rate x (1 + (k - 1) I): k < 1 = more noise in the dark
+  // [events] keys given as [lo, hi] (any of kDrawnEventKeys): drawn per sequence by
+  // draw_sequence_config into the scalars above, which hold the midpoint meanwhile.
+  std::vector<std::pair<std::string, Range>> event_ranges;
 
   // [scene]
   std::string background = "room";  // "room" (textured box) or "planes" (planes at depths)
@@ -50,6 +60,10 @@ struct SimConfig {
   Range texture_tile_m{0.5, 2.0};  // size of one texture tile in metres
   Range illumination{0.4, 1.0};
   Range ambient{0.3, 0.7};
+  // Lighting flicker: intensity x (1 + depth sin(2 pi f t + phase)), applied to the rendered
+  // log intensity (simulate.cpp); f, depth drawn per sequence, phase uniform in [0, 2 pi).
+  Range flicker_hz{0, 0}, flicker_depth{0, 0};
+  double flicker_phase = 0;  // radians; set by draw_sequence_config
 
   // [objects]
   int objects_min = 1, objects_max = 3;
@@ -97,5 +111,17 @@ SimConfig load_sim_config(const std::string& path);
 void apply_noise_setting(SimConfig& c, const std::string& setting);
 // Throws spikems::Error naming `source` for out-of-range values.
 void validate_sim_config(const SimConfig& c, const std::string& source);
+
+// The [events] keys that accept [lo, hi], in the order they are drawn.
+inline constexpr const char* kDrawnEventKeys[] = {
+    "threshold", "threshold_sigma", "threshold_asymmetry", "refractory_us",
+    "leak_hz",   "shot_hz",         "hot_pixel_fraction",  "photoreceptor_cutoff_hz"};
+// The per-sequence sensor and lighting: one uniform draw from rng per kDrawnEventKeys entry
+// (whether a range or fixed, so one key's range does not shift the others), then flicker_hz,
+// flicker_depth and the flicker phase. Returns c with every such range collapsed to its draw
+// (event_ranges empty, flicker_hz.lo == .hi, flicker_depth.lo == .hi).
+SimConfig draw_sequence_config(const SimConfig& c, std::mt19937_64& rng);
+// True when c still holds [events] ranges or a flicker range (draw_sequence_config not applied).
+bool has_sequence_ranges(const SimConfig& c);
 
 }  // namespace spikems::sim

@@ -113,6 +113,11 @@ NoiseParams noise_from_config(const SimConfig& c) {
   n.hot_pixel_hz = c.hot_pixel_hz;
   n.random_initial_reference = c.noise == "noisy";
   n.photoreceptor_cutoff_hz = c.photoreceptor_cutoff_hz;
+  n.threshold_asymmetry = c.threshold_asymmetry;
+  n.photoreceptor_light_dependent = c.photoreceptor_light_dependent;
+  n.shot_intensity_factor = c.shot_intensity_factor;
+  n.log_eps = c.log_eps;
+  n.balanced_initial_reference = c.initial_reference == "balanced";
   return n;
 }
 
@@ -120,8 +125,15 @@ uint64_t sequence_seed(uint64_t global_seed, int index) {
   return splitmix64(splitmix64(global_seed) ^ splitmix64(0xC0FFEEull + uint64_t(index)));
 }
 
-Recording simulate_scene(const Scene& scene, const Camera& cam, const SimConfig& cfg, uint64_t seed,
-                         const SimulateOptions& opt, SimStats* stats) {
+Recording simulate_scene(const Scene& scene, const Camera& cam, const SimConfig& cfg_in,
+                         uint64_t seed, const SimulateOptions& opt, SimStats* stats) {
+  // Ranges not yet drawn (a caller that builds its own scene): draw them from this seed.
+  SimConfig drawn;
+  if (has_sequence_ranges(cfg_in)) {
+    std::mt19937_64 rng(splitmix64(seed ^ 0x5E45A7ull));
+    drawn = draw_sequence_config(cfg_in, rng);
+  }
+  const SimConfig& cfg = has_sequence_ranges(cfg_in) ? drawn : cfg_in;
   Recording rec;
   rec.events.sensor = {cam.width, cam.height};
   rec.events.add_zero_labels();
@@ -148,21 +160,37 @@ Recording simulate_scene(const Scene& scene, const Camera& cam, const SimConfig&
       if (s.id != 0) rec.poses.push_back(to_sample(t_us, s.id, s.motion.at(ts)));
   };
 
+  // Lighting flicker on the rendered samples: I' = I g(t), g = 1 + depth sin(2 pi f t + phase),
+  // so L' = log(eps + (exp(L) - eps) g) (the renderer stays flicker-free).
+  const double fl_hz = cfg.flicker_hz.lo, fl_depth = cfg.flicker_depth.lo;
+  auto flicker = [&](Frame& f, int64_t t_us) {
+    if (fl_hz <= 0 || fl_depth <= 0) return;
+    const float g =
+        float(1 + fl_depth * std::sin(2 * 3.141592653589793 * fl_hz * double(t_us) * 1e-6 +
+                                      cfg.flicker_phase));
+    const float eps = float(cfg.log_eps);
+    for (float& L : f.log_intensity) L = std::log(eps + std::max(std::exp(L) - eps, 0.f) * g);
+  };
+
   auto t_r = std::chrono::steady_clock::now();
   renderer.render(0.0, prev, opt.render_threads);
+  flicker(prev, 0);
   st.render_seconds += seconds_since(t_r);
   ++st.frames_rendered;
   gen.reset(prev.log_intensity.data(), prev.id.data(), 0);
   record_sample(0, prev);
 
   const int64_t T = cfg.duration_us;
-  const double target = cfg.max_dlog_fraction * cfg.threshold;
+  // The smaller of the ON and OFF thresholds bounds the brightness step.
+  const double target =
+      cfg.max_dlog_fraction * cfg.threshold * (1 - std::fabs(cfg.threshold_asymmetry));
   int64_t t = 0, dt = cfg.dt_min_us, next_mask = cfg.mask_period_us;
   while (t < T) {
     if (opt.cancel && opt.cancel->load()) break;
     int64_t t1 = std::min({t + dt, next_mask, T});
     t_r = std::chrono::steady_clock::now();
     renderer.render(double(t1) * 1e-6, cur, opt.render_threads);
+    flicker(cur, t1);
     auto t_e = std::chrono::steady_clock::now();
     st.render_seconds += std::chrono::duration<double>(t_e - t_r).count();
     ++st.frames_rendered;
@@ -199,6 +227,16 @@ Recording simulate_scene(const Scene& scene, const Camera& cam, const SimConfig&
   meta["leak_hz"] = cfg.leak_hz;
   meta["shot_hz"] = cfg.shot_hz;
   meta["photoreceptor_cutoff_hz"] = cfg.photoreceptor_cutoff_hz;
+  // The sensor and lighting this sequence drew (docs/simulator.md, "Sensor randomisation").
+  meta["threshold_asymmetry"] = cfg.threshold_asymmetry;
+  meta["threshold_on"] = cfg.threshold * (1 + cfg.threshold_asymmetry);
+  meta["threshold_off"] = cfg.threshold * (1 - cfg.threshold_asymmetry);
+  meta["hot_pixel_fraction"] = cfg.hot_pixel_fraction;
+  meta["hot_pixel_hz"] = cfg.hot_pixel_hz;
+  meta["photoreceptor_light_dependent"] = cfg.photoreceptor_light_dependent;
+  meta["shot_intensity_factor"] = cfg.shot_intensity_factor;
+  meta["initial_reference"] = cfg.initial_reference;
+  meta["flicker"] = {{"hz", fl_hz}, {"depth", fl_depth}, {"phase", cfg.flicker_phase}};
   meta["duration_us"] = t;
   meta["mask_period_us"] = cfg.mask_period_us;
   meta["frames_rendered"] = st.frames_rendered;
@@ -219,7 +257,9 @@ Recording simulate_sequence(const SimConfig& cfg, uint64_t seed, const SimulateO
   std::mt19937_64 rng(seed);
   Camera cam = camera_from_config(cfg);
   Scene scene = make_random_scene(cfg, cam, rng);
-  return simulate_scene(scene, cam, cfg, seed, opt, stats);
+  // Sensor and flicker after the scene, from the same generator (the scene's draws unchanged).
+  const SimConfig seq = draw_sequence_config(cfg, rng);
+  return simulate_scene(scene, cam, seq, seed, opt, stats);
 }
 
 DatasetSummary simulate_dataset(const SimConfig& cfg, const DatasetOptions& opt) {
