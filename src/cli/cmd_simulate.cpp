@@ -176,10 +176,11 @@ void add(CLI::App& app) {
       "  spikems simulate --config my.toml --out data/x     (start from --print-config)\n"
       "  spikems simulate --preset mod --sequences 16 --duration 200ms --out d --preview\n"
       "  spikems simulate --preset mod --stats-compare poster_translation.npz\n"
-      "Presets: mod, mod-translate, evimo, eed-net, poster, tiny (configs/sim/*.toml). See "
+      "Presets: mod, mod-fixed, mod-translate, evimo, eed-net, poster, tiny (configs/sim/*.toml). "
+      "See "
       "docs/simulator.md.");
   cmd->add_option("--preset", args->preset,
-                  "Scene preset: mod, mod-translate, evimo, eed-net, poster, tiny")
+                  "Scene preset: mod, mod-fixed, mod-translate, evimo, eed-net, poster, tiny")
       ->check(CLI::IsMember(::spikems::sim::preset_names()));
   cmd->add_option("--config", args->config, "TOML config (replaces the preset)")
       ->check(CLI::ExistingFile);

@@ -20,14 +20,15 @@ const std::map<std::string, std::string>& table() {
 }  // namespace
 
 std::vector<std::string> preset_names() {
-  return {"mod", "mod-translate", "evimo", "eed-net", "poster", "tiny"};
+  return {"mod", "mod-fixed", "mod-translate", "evimo", "eed-net", "poster", "tiny"};
 }
 
 const std::string& preset_toml(const std::string& name) {
   auto it = table().find(name);
   if (it == table().end())
     fail("--preset", "",
-         "unknown preset '" + name + "' (use mod, mod-translate, evimo, eed-net, poster or tiny)");
+         "unknown preset '" + name +
+             "' (use mod, mod-fixed, mod-translate, evimo, eed-net, poster or tiny)");
   return it->second;
 }
 
