@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/sim/image_texture.h"
+
 namespace spikems::sim {
 
 namespace {
@@ -33,12 +35,19 @@ Quat random_rotation(std::mt19937_64& rng) {
 int add_texture(Scene& s, const SimConfig& c, std::mt19937_64& rng, double mean_lo,
                 double mean_hi) {
   TextureParams p;
-  p.kind = texture_kind_from_name(c.textures[size_t(draw_int(rng, 0, int(c.textures.size()) - 1))]);
+  const std::string& entry = c.textures[size_t(draw_int(rng, 0, int(c.textures.size()) - 1))];
+  const bool is_dir = entry.rfind(kTextureDirPrefix, 0) == 0;
+  p.kind = is_dir ? TextureKind::Image : texture_kind_from_name(entry);
   p.seed = rng();
   p.frequency = int(std::lround(draw(rng, c.texture_frequency)));
   p.mean = draw(rng, {mean_lo, mean_hi});
   p.log_contrast = draw(rng, c.log_contrast);
   p.angle = draw(rng, {0, kPi});
+  if (is_dir) {  // one image of the folder, drawn last so other draws keep their order
+    const auto& files = image_texture_files(entry.substr(std::string(kTextureDirPrefix).size()));
+    p.image_path = files[size_t(draw_int(rng, 0, int(files.size()) - 1))];
+    p.image = image_texture_tile(p.image_path);
+  }
   s.textures.emplace_back(p);
   return int(s.textures.size()) - 1;
 }

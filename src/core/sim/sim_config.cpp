@@ -2,10 +2,13 @@
 
 #include <toml++/toml.h>
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
 
+#include "core/sim/image_texture.h"
+#include "core/sim/texture.h"
 #include "core/util/error.h"
 
 namespace spikems::sim {
@@ -106,6 +109,26 @@ class Section {
       }
     }
   }
+  // `textures`: a list of kind names and "dir:PATH" entries, or one string PATH (= "dir:PATH").
+  // Relative paths are taken from base_dir (the config file's folder; empty: current folder).
+  void textures(const char* key, std::vector<std::string>& out, const std::string& base_dir) {
+    auto* n = get(key);
+    if (!n) return;
+    const std::string prefix = kTextureDirPrefix;
+    auto resolve = [&](const std::string& path) {
+      if (path.empty()) bad(key, "a non-empty folder path");
+      std::filesystem::path p(path);
+      if (p.is_relative() && !base_dir.empty()) p = std::filesystem::path(base_dir) / p;
+      return prefix + p.lexically_normal().string();
+    };
+    if (auto v = n->value<std::string>()) {
+      out = {resolve(*v)};
+      return;
+    }
+    strings(key, out);
+    for (auto& e : out)
+      if (e.rfind(prefix, 0) == 0) e = resolve(e.substr(prefix.size()));
+  }
   void check_unknown() const {
     if (!t_) return;
     for (auto&& [k, v] : *t_)
@@ -129,7 +152,8 @@ class Section {
 
 }  // namespace
 
-SimConfig parse_sim_config(const std::string& text, const std::string& source) {
+SimConfig parse_sim_config(const std::string& text, const std::string& source,
+                           const std::string& base_dir) {
   toml::table root;
   try {
     root = toml::parse(text, source);
@@ -204,7 +228,7 @@ SimConfig parse_sim_config(const std::string& text, const std::string& source) {
     s.range("room_depth", c.room_depth);
     s.integer("planes", c.planes);
     s.range("plane_depth", c.plane_depth);
-    s.strings("textures", c.textures);
+    s.textures("textures", c.textures, base_dir);
     s.range("texture_frequency", c.texture_frequency);
     s.range("log_contrast", c.log_contrast);
     s.range("texture_tile_m", c.texture_tile_m);
@@ -267,7 +291,7 @@ SimConfig load_sim_config(const std::string& path) {
   if (!f) fail(path, "", "cannot open the simulator config (check the path)");
   std::stringstream ss;
   ss << f.rdbuf();
-  return parse_sim_config(ss.str(), path);
+  return parse_sim_config(ss.str(), path, std::filesystem::path(path).parent_path().string());
 }
 
 void apply_noise_setting(SimConfig& c, const std::string& setting) {
@@ -437,11 +461,20 @@ void validate_sim_config(const SimConfig& c, const std::string& src) {
   one_of(c.object_motion, "[objects] motion", {"linear", "curved", "ballistic", "spin"});
   one_of(c.camera_motion, "[camera] motion", {"handheld", "translate", "rotate", "shake"});
   one_of(c.occluder_kinds, "[occluder] kind", {"none", "net", "bars", "foliage"});
-  for (const auto& t : c.textures)
-    need(t == "noise" || t == "stripes" || t == "checkers" || t == "grid" || t == "blobs" ||
-             t == "natural" || t == "uniform",
-         "[scene] textures",
-         "unknown texture '" + t + "' (noise stripes checkers grid blobs natural uniform)");
+  need(!c.textures.empty(), "[scene] textures", "must not be empty");
+  const std::string prefix = kTextureDirPrefix;
+  for (const auto& t : c.textures) {
+    if (t.rfind(prefix, 0) == 0) {
+      try {
+        image_texture_files(t.substr(prefix.size()));  // folder exists, holds readable PNGs
+      } catch (const Error& e) {
+        fail(src, "[scene] textures", e.what());
+      }
+      continue;
+    }
+    need(is_texture_kind_name(t), "[scene] textures",
+         "unknown texture '" + t + "' (" + texture_kind_names() + ", or dir:PATH)");
+  }
 }
 
 }  // namespace spikems::sim

@@ -54,7 +54,10 @@ struct SimConfig {
   Range room_width{4, 8}, room_height{2.5, 4}, room_depth{5, 10};
   int planes = 3;
   Range plane_depth{1.5, 8};
-  std::vector<std::string> textures{"noise", "stripes", "checkers", "grid", "blobs", "natural"};
+  // Kind names (texture.h) and "dir:PATH" entries (PNG folders, image_texture.h); a preset
+  // file's `textures = "PATH"` is {"dir:PATH"}. Relative paths are resolved at parsing.
+  std::vector<std::string> textures{"noise", "stripes", "checkers",    "grid",
+                                    "blobs", "natural", "dead_leaves", "gradient"};
   Range texture_frequency{2, 10};
   Range log_contrast{0.8, 2.5};
   Range texture_tile_m{0.5, 2.0};  // size of one texture tile in metres
@@ -104,8 +107,11 @@ struct SimConfig {
   double val_fraction = 0.1, test_fraction = 0.1;
 };
 
-// Parses TOML text; every key is optional (defaults above); unknown keys are errors.
-SimConfig parse_sim_config(const std::string& toml_text, const std::string& source);
+// Parses TOML text; every key is optional (defaults above); unknown keys are errors. Relative
+// texture folders are taken from base_dir (load_sim_config: the file's folder; empty: the
+// current folder, as for the compiled-in presets).
+SimConfig parse_sim_config(const std::string& toml_text, const std::string& source,
+                           const std::string& base_dir = "");
 SimConfig load_sim_config(const std::string& path);
 // "clean" zeroes mismatch, refractory, leak, shot noise and hot pixels; "noisy" keeps them.
 void apply_noise_setting(SimConfig& c, const std::string& setting);

@@ -51,7 +51,106 @@ double soft_square(double phase) {
   return std::clamp(0.5 + 2.5 * std::sin(phase), 0.0, 1.0);
 }
 
+// Smooth shading: a handful of broad Gaussians of either sign, summed over the 3 x 3
+// neighbouring tiles so the result is periodic and smooth across the tile border.
+std::vector<float> gradient_values(uint64_t seed) {
+  const int n = Texture::kTile;
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> U(0, 1);
+  // A Gaussian is separable, and so is its sum over the 3 x 3 tiles: per bump, one periodic
+  // profile per axis.
+  const int count = 3 + int(U(rng) * 4);  // 3..6
+  std::vector<double> amp(static_cast<size_t>(count));
+  std::vector<double> gx(size_t(count) * n), gy(size_t(count) * n);
+  for (int b = 0; b < count; ++b) {
+    double bu = U(rng), bv = U(rng), sigma = 0.15 + 0.2 * U(rng);
+    amp[size_t(b)] = 2 * U(rng) - 1;
+    const double k2 = 1 / (2 * sigma * sigma);
+    for (int x = 0; x < n; ++x) {
+      double su = 0, sv = 0, u = (x + 0.5) / n;
+      for (int i = -1; i <= 1; ++i) {
+        su += std::exp(-(u - bu + i) * (u - bu + i) * k2);
+        sv += std::exp(-(u - bv + i) * (u - bv + i) * k2);
+      }
+      gx[size_t(b) * n + x] = su;
+      gy[size_t(b) * n + x] = sv;
+    }
+  }
+  // A faint shading wave, one period per tile along an axis or a diagonal (integer wave
+  // vector, so periodic).
+  static constexpr int kDirs[4][2] = {{1, 0}, {0, 1}, {1, 1}, {1, -1}};
+  const int* k = kDirs[int(U(rng) * 4)];
+  double tilt = 0.3 * U(rng), phase = kTwoPi * U(rng);
+  std::vector<float> out(size_t(n) * n);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      double u = (x + 0.5) / n, v = (y + 0.5) / n;
+      double val = tilt * std::cos(kTwoPi * (k[0] * u + k[1] * v) + phase);
+      for (int b = 0; b < count; ++b)
+        val += amp[size_t(b)] * gx[size_t(b) * n + x] * gy[size_t(b) * n + y];
+      out[size_t(y) * n + x] = float(val);
+    }
+  return out;
+}
+
 }  // namespace
+
+DeadLeaves bake_dead_leaves(uint64_t seed) {
+  const int n = Texture::kTile, S = DeadLeaves::kSuper, N = n * S;  // N: subsample grid
+  std::vector<float> sub(size_t(N) * N, -1.0f);                     // -1: bare
+  int64_t bare = int64_t(N) * N;
+  std::vector<int> bare_in_row(size_t(N), N);  // lets late leaves skip covered rows
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> U(0, 1);
+  // Inverse CDF of p(r) ~ r^-3 on [a, b]: r = (a^-2 - u (a^-2 - b^-2))^-1/2.
+  const double ia2 = 1 / (DeadLeaves::kRMin * DeadLeaves::kRMin);
+  const double ib2 = 1 / (DeadLeaves::kRMax * DeadLeaves::kRMax);
+  DeadLeaves out;
+  while (bare > 0 && out.leaves < DeadLeaves::kMaxLeaves) {
+    ++out.leaves;
+    const int shape = int(U(rng) * 3);  // 0 disc, 1 ellipse, 2 rectangle
+    const double r = N / std::sqrt(ia2 - U(rng) * (ia2 - ib2));
+    const double aspect = shape == 0 ? 1.0 : 0.3 + 0.7 * U(rng);
+    const double th = kTwoPi * U(rng), c = std::cos(th), s = std::sin(th);
+    const double cx = N * U(rng), cy = N * U(rng);
+    const float val = float(U(rng));
+    // Bounding half-extent; at most kRMax x sqrt(2) < 1/2 tile, so wrapping never overlaps.
+    const double ext = shape == 2 ? r * std::sqrt(1 + aspect * aspect) : r;
+    const double ir2 = 1 / (r * r), ib2s = 1 / (r * r * aspect * aspect), rb = r * aspect;
+    const int x0 = int(std::floor(cx - ext)), x1 = int(std::ceil(cx + ext));
+    const int y0 = int(std::floor(cy - ext)), y1 = int(std::ceil(cy + ext));
+    for (int y = y0; y <= y1; ++y) {
+      int& row_bare = bare_in_row[size_t(y & (N - 1))];
+      if (row_bare == 0) continue;
+      float* row = &sub[size_t(y & (N - 1)) * N];
+      const double dy = y + 0.5 - cy;
+      for (int x = x0; x <= x1; ++x) {
+        float& px = row[x & (N - 1)];
+        if (px >= 0) continue;
+        const double dx = x + 0.5 - cx;
+        const double a = dx * c + dy * s, b = -dx * s + dy * c;
+        const bool in =
+            shape == 2 ? std::fabs(a) <= r && std::fabs(b) <= rb : a * a * ir2 + b * b * ib2s <= 1;
+        if (in) {
+          px = val;
+          --bare;
+          --row_bare;
+        }
+      }
+    }
+  }
+  out.holes = bare;
+  if (bare > 0) {  // a last leaf behind all others
+    const float val = float(U(rng));
+    for (auto& px : sub)
+      if (px < 0) px = val;
+  }
+  out.v.assign(size_t(n) * n, 0.0f);
+  const float w = 1.0f / float(S * S);
+  for (int y = 0; y < N; ++y)
+    for (int x = 0; x < N; ++x) out.v[size_t(y / S) * n + x / S] += sub[size_t(y) * N + x] * w;
+  return out;
+}
 
 TextureKind texture_kind_from_name(const std::string& n) {
   if (n == "noise") return TextureKind::Noise;
@@ -61,9 +160,22 @@ TextureKind texture_kind_from_name(const std::string& n) {
   if (n == "blobs") return TextureKind::Blobs;
   if (n == "natural") return TextureKind::Natural;
   if (n == "uniform") return TextureKind::Uniform;
+  if (n == "dead_leaves") return TextureKind::DeadLeaves;
+  if (n == "gradient") return TextureKind::Gradient;
   fail("texture", "",
-       "unknown texture kind '" + n +
-           "' (use noise, stripes, checkers, grid, blobs, natural, uniform)");
+       "unknown texture kind '" + n + "' (use " + texture_kind_names() + ", or dir:PATH)");
+}
+
+bool is_texture_kind_name(const std::string& n) {
+  for (auto k : {TextureKind::Noise, TextureKind::Stripes, TextureKind::Checkers, TextureKind::Grid,
+                 TextureKind::Blobs, TextureKind::Natural, TextureKind::Uniform,
+                 TextureKind::DeadLeaves, TextureKind::Gradient})
+    if (n == texture_kind_name(k)) return true;
+  return false;
+}
+
+const char* texture_kind_names() {
+  return "noise stripes checkers grid blobs natural uniform dead_leaves gradient";
 }
 
 const char* texture_kind_name(TextureKind k) {
@@ -82,12 +194,18 @@ const char* texture_kind_name(TextureKind k) {
       return "natural";
     case TextureKind::Uniform:
       return "uniform";
+    case TextureKind::DeadLeaves:
+      return "dead_leaves";
+    case TextureKind::Gradient:
+      return "gradient";
+    case TextureKind::Image:
+      return "image";
   }
   return "?";
 }
 
-Texture::Texture(const TextureParams& p) : params_(p) {
-  const int n = kTile;
+std::vector<float> texture_values(const TextureParams& p) {
+  const int n = Texture::kTile;
   const int f = std::max(1, p.frequency);
   std::vector<float> img(size_t(n) * n);
   // Blobs: random discs placed periodically.
@@ -105,6 +223,13 @@ Texture::Texture(const TextureParams& p) : params_(p) {
   // Stripes run along an angle that keeps the tile periodic: integer wave vector.
   int kx = int(std::lround(f * std::cos(p.angle))), ky = int(std::lround(f * std::sin(p.angle)));
   if (kx == 0 && ky == 0) kx = 1;
+  if (p.kind == TextureKind::DeadLeaves) img = bake_dead_leaves(p.seed).v;
+  if (p.kind == TextureKind::Gradient) img = gradient_values(p.seed);
+  if (p.kind == TextureKind::Image) {
+    if (!p.image || p.image->size() != img.size())
+      fail(p.image_path, "", "image texture is not a " + std::to_string(n) + "^2 tile");
+    img = *p.image;
+  }
   for (int y = 0; y < n; ++y) {
     for (int x = 0; x < n; ++x) {
       double u = (x + 0.5) / n, v = (y + 0.5) / n, val = 0.5;
@@ -151,17 +276,28 @@ Texture::Texture(const TextureParams& p) : params_(p) {
         case TextureKind::Uniform:
           val = 0.5;
           break;
+        case TextureKind::DeadLeaves:
+        case TextureKind::Gradient:
+        case TextureKind::Image:
+          val = img[size_t(y) * n + x];  // baked above
+          break;
       }
       img[size_t(y) * n + x] = float(val);
     }
   }
-  // Normalise to [0,1] then map to albedo mean * exp(log_contrast * (v - 0.5)).
+  // Normalise to [0,1].
   auto [mn, mx] = std::minmax_element(img.begin(), img.end());
   float lo = *mn, hi = *mx;
-  for (auto& v : img) {
-    float t = hi > lo ? (v - lo) / (hi - lo) : 0.5f;
-    v = float(std::clamp(p.mean * std::exp(p.log_contrast * (t - 0.5)), 0.01, 1.0));
-  }
+  for (auto& v : img) v = hi > lo ? (v - lo) / (hi - lo) : 0.5f;
+  return img;
+}
+
+Texture::Texture(const TextureParams& p) : params_(p) {
+  const int n = kTile;
+  // Albedo = mean * exp(log_contrast * (v - 0.5)).
+  std::vector<float> img = texture_values(p);
+  for (auto& v : img)
+    v = float(std::clamp(p.mean * std::exp(p.log_contrast * (v - 0.5)), 0.01, 1.0));
   mips_.push_back(std::move(img));
   for (int s = n / 2; s >= 1; s /= 2) {
     const auto& prev = mips_.back();

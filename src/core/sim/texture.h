@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -14,10 +15,26 @@
 
 namespace spikems::sim {
 
-enum class TextureKind { Noise, Stripes, Checkers, Grid, Blobs, Natural, Uniform };
+// Image: a PNG resampled to the tile (core/sim/image_texture.h); it has no name in the
+// `textures` list (images come from "dir:PATH" entries).
+enum class TextureKind {
+  Noise,
+  Stripes,
+  Checkers,
+  Grid,
+  Blobs,
+  Natural,
+  Uniform,
+  DeadLeaves,
+  Gradient,
+  Image
+};
 
 TextureKind texture_kind_from_name(const std::string& name);  // throws Error on unknown
 const char* texture_kind_name(TextureKind k);
+bool is_texture_kind_name(const std::string& name);  // a procedural kind usable in `textures`
+// The procedural kind names, space-separated (for error messages).
+const char* texture_kind_names();
 
 struct TextureParams {
   TextureKind kind = TextureKind::Noise;
@@ -26,7 +43,29 @@ struct TextureParams {
   double mean = 0.5;        // mean albedo
   double log_contrast = 1;  // albedo spans mean * exp(+-log_contrast/2)
   double angle = 0;         // stripes orientation (radians)
+  // Image: kTile x kTile values in [0,1] (row-major; see image_texture.h) and the file.
+  std::shared_ptr<const std::vector<float>> image;
+  std::string image_path;
 };
+
+// Level-0 values v in [0,1] (kTile x kTile, row-major) before the albedo map
+// mean x exp(log_contrast x (v - 1/2)); normalised so min = 0 and max = 1 (0.5 if flat).
+std::vector<float> texture_values(const TextureParams& p);
+
+// Dead leaves (Lee, Mumford & Huang 2001): opaque discs, ellipses and rectangles at random
+// orientations, radii with p(r) ~ r^-3 in [kRMin, kRMax] tile units and grey values uniform in
+// [0,1], dropped one behind another (front to back: a leaf only paints what no earlier leaf
+// covers) until the tile is covered; periodic; painted at kSuper x kSuper subsamples per texel
+// and box-averaged, which anti-aliases the edges of level 0.
+struct DeadLeaves {
+  static constexpr double kRMin = 1.0 / 128, kRMax = 1.0 / 4;
+  static constexpr int kSuper = 4;
+  static constexpr int kMaxLeaves = 1'000'000;  // then a last leaf fills what is left
+  std::vector<float> v;                         // kTile x kTile, values in [0,1]
+  int leaves = 0;     // leaves dropped (most late ones land on covered ground)
+  int64_t holes = 0;  // subsamples still bare after kMaxLeaves (0 in practice)
+};
+DeadLeaves bake_dead_leaves(uint64_t seed);
 
 class Texture {
  public:
