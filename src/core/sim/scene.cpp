@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 
 #include "core/sim/image_texture.h"
 
@@ -300,7 +301,13 @@ Scene make_random_scene(const SimConfig& c, const Camera& cam, std::mt19937_64& 
   s.ambient = draw(rng, c.ambient);
   s.illumination = draw(rng, c.illumination);
   s.camera_motion = pick(rng, c.camera_motion);
-  if (s.camera_motion == "handheld") {
+  if (s.camera_motion == "glide") {
+    // Constant velocity in the image plane, no rotation: a slider, a dolly, a robot driving
+    // past; the image speed is the same all sequence (the `poster` calibration relies on it).
+    const double v = draw(rng, c.camera_speed), a = draw(rng, {0, 2 * std::numbers::pi});
+    s.camera = Trajectory{};
+    s.camera.velocity = Vec3{v * std::cos(a), v * std::sin(a), 0};
+  } else if (s.camera_motion == "handheld") {
     s.camera =
         random_camera_trajectory(rng, draw(rng, c.camera_speed), draw(rng, c.camera_angular_speed),
                                  c.camera_frequency_hz.lo, c.camera_frequency_hz.hi);

@@ -459,7 +459,7 @@ void validate_sim_config(const SimConfig& c, const std::string& src) {
            "unknown kind '" + v + "' (" + all + ")");
   };
   one_of(c.object_motion, "[objects] motion", {"linear", "curved", "ballistic", "spin"});
-  one_of(c.camera_motion, "[camera] motion", {"handheld", "translate", "rotate", "shake"});
+  one_of(c.camera_motion, "[camera] motion", {"handheld", "translate", "rotate", "shake", "glide"});
   one_of(c.occluder_kinds, "[occluder] kind", {"none", "net", "bars", "foliage"});
   need(!c.textures.empty(), "[scene] textures", "must not be empty");
   const std::string prefix = kTextureDirPrefix;

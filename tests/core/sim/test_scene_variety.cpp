@@ -285,6 +285,16 @@ TEST(SimSceneVariety, CameraMotionKinds) {
     cfg.camera_motion = {"handheld"};
     s = scene_for(cfg, seed);
     for (const auto& k : s.camera.wobble_translation) EXPECT_LE(k.freq_hz, 1.5);
+
+    // Glide: constant velocity of norm `speed` in the image plane, no rotation.
+    cfg.camera_motion = {"glide"};
+    s = scene_for(cfg, seed);
+    for (double t = 0; t <= 2.0; t += 0.25) {
+      Pose p = s.camera.at(t);
+      EXPECT_NEAR(angle_of(p.q), 0, 1e-12);
+      EXPECT_NEAR(p.t.norm(), 0.5 * t, 1e-9);
+      EXPECT_NEAR(p.t.z, 0, 1e-12);
+    }
   }
 }
 
@@ -360,7 +370,7 @@ TEST(SimSceneVariety, ModPresetDrawsEveryKind) {
     }
     occs.insert(occ);
   }
-  EXPECT_EQ(cams, (std::set<std::string>{"handheld", "translate", "rotate", "shake"}));
+  EXPECT_EQ(cams, (std::set<std::string>{"handheld", "translate", "rotate", "shake", "glide"}));
   EXPECT_EQ(objs, (std::set<std::string>{"linear", "curved", "ballistic", "spin"}));
   EXPECT_EQ(occs, (std::set<std::string>{"none", "net", "bars", "foliage"}));
   SimConfig tiny = preset_config("tiny");
