@@ -16,8 +16,8 @@ namespace {
 using namespace spikems;
 
 struct Args {
-  std::string model, windows = "20,100", split = "test", out;
-  std::vector<std::string> data;
+  std::string windows = "20,100", split = "test", out;
+  std::vector<std::string> models, data, baselines;
   int threads = 1;
   bool iir = false, quiet = false;
   double max_seconds = 0;
@@ -26,7 +26,9 @@ struct Args {
 void run(const Args& a) {
   install_interrupt_flag();
   EvalOptions o;
-  o.model_path = a.model.empty() ? default_model_or_fail() : a.model;
+  // Without --model the shipped default is scored (and any --baseline beside it).
+  o.models = a.models.empty() ? std::vector<std::string>{default_model_or_fail()} : a.models;
+  o.baselines = a.baselines;
   if (a.split != "train" && a.split != "val" && a.split != "test" && a.split != "all")
     fail("--split", "", "'" + a.split + "' is not a split: use train, val, test or all");
   if (a.max_seconds < 0) fail("--max-seconds", "", "must be positive");
@@ -63,9 +65,17 @@ void add(CLI::App& app) {
       "  spikems eval --model m.safetensors --data data/mod --split all --windows 1:25 --out o\n"
       "  spikems eval --model m.safetensors --data rec.h5 --data data/evimo --windows 10,20,100 "
       "--iir --threads 2 --out o\n"
-      "  spikems eval --model m.safetensors --data data/mod --max-seconds 0.5   (a quick check)");
-  cmd->add_option("--model", a.model,
-                  "Model file (.safetensors, spikems format); required until a default ships");
+      "  spikems eval --model m.safetensors --data data/mod --max-seconds 0.5   (a quick check)\n"
+      "  spikems eval --model a.safetensors --model b.safetensors --baseline all-events "
+      "--data data/mod --out o   (several models and the 'every event moving' baseline on the "
+      "same windows)");
+  cmd->add_option("--model", a.models,
+                  "Model file (.safetensors, spikems format); repeat to compare several "
+                  "(default: the shipped model)");
+  cmd->add_option("--baseline", a.baselines,
+                  "Also score a baseline on the same windows: all-events (every pixel with an "
+                  "event predicted moving); repeatable")
+      ->check(CLI::IsMember({"all-events"}));
   cmd->add_option("--data", a.data,
                   "Labelled data: a `spikems simulate` folder (manifest.json) or a labelled "
                   "event file; repeat for several");

@@ -160,6 +160,38 @@ TEST_F(EvalCli, RangesCutsAndSeveralSources) {
   EXPECT_EQ(complete_windows(file, 3000, 50000), 16);
 }
 
+// Several models and the "every event moving" baseline on the same windows: one result per
+// model in the order given, then the baseline; the pass-all model (every event pixel, one step
+// late) scores close to the baseline that predicts every event pixel at once.
+TEST_F(EvalCli, SeveralModelsAndTheAllEventsBaseline) {
+  const std::string o = dir_ + "/out_several";
+  const std::string copy = dir_ + "/pass_all_copy.safetensors";
+  fs::copy_file(model(), copy, fs::copy_options::overwrite_existing);
+  std::string out;
+  ASSERT_EQ(run_command(eval("--model " + copy + " --baseline all-events --data " + data() +
+                             " --split all --windows 20,100 --out " + o),
+                        &out),
+            0)
+      << out;
+  const auto j = nlohmann::json::parse(slurp(o + "/results.json"));
+  ASSERT_EQ(j["models"].size(), 3u);
+  EXPECT_EQ(j["models"][0]["model"], model());
+  EXPECT_EQ(j["models"][1]["model"], copy);
+  EXPECT_EQ(j["models"][2]["model"], "baseline:all-events");
+  EXPECT_EQ(j["models"][2]["name"], "every event moving");
+  for (size_t w = 0; w < 2; ++w) {
+    const auto& a = j["models"][0]["datasets"][0]["windows"][w];
+    const auto& b = j["models"][1]["datasets"][0]["windows"][w];
+    const auto& c = j["models"][2]["datasets"][0]["windows"][w];
+    EXPECT_EQ(a["iou_mean"], b["iou_mean"]);  // the same model twice: the same numbers
+    EXPECT_EQ(a["windows"], c["windows"]);    // the same windows for the baseline
+    EXPECT_NEAR(a["iou_mean"].get<double>(), c["iou_mean"].get<double>(), 5.0) << "window " << w;
+  }
+  EXPECT_NE(slurp(o + "/results.md").find("every event moving"), std::string::npos);
+  EXPECT_NE(run_command(eval("--baseline none --data " + data()), &out), 0);
+  EXPECT_NE(out.find("--baseline"), std::string::npos) << out;
+}
+
 TEST_F(EvalCli, BadInputStopsWithAClearMessage) {
   const std::string o = dir_ + "/out_bad";
   std::string out;

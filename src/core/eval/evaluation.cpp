@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "core/dataset/sequence.h"
+#include "core/eval/baseline_scorer.h"
 #include "core/eval/sequence_scorer.h"
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
@@ -13,11 +14,23 @@ namespace spikems {
 namespace fs = std::filesystem;
 
 EvalResults evaluate(const EvalOptions& opt) {
-  if (opt.model_path.empty()) fail("spikems eval", "", "no model given (--model FILE)");
+  std::vector<std::string> paths = opt.models;
+  if (!opt.model_path.empty()) paths.insert(paths.begin(), opt.model_path);
+  for (const auto& b : opt.baselines)
+    if (b != kAllEventsBaseline)
+      fail("spikems eval", "--baseline " + b,
+           "unknown baseline (use " + std::string(kAllEventsBaseline) + ")");
+  if (paths.empty() && opt.baselines.empty())
+    fail("spikems eval", "", "no model given (--model FILE)");
   if (opt.data.empty()) fail("spikems eval", "", "no data given (--data PATH)");
-  ModelSpec model = load_model(opt.model_path);
-  if (opt.iir) model = with_iir_neurons(std::move(model), opt.model_path);
-  check_windows(opt.windows_us, time_step_us(model), opt.model_path);
+  std::vector<ModelSpec> models;
+  for (const auto& p : paths) {
+    ModelSpec m = load_model(p);
+    if (opt.iir) m = with_iir_neurons(std::move(m), p);
+    check_windows(opt.windows_us, time_step_us(m), p);
+    models.push_back(std::move(m));
+  }
+  if (!opt.baselines.empty()) check_windows(opt.windows_us, 1, "--windows");
 
   // Every source's sequence list first, so that a bad path or an empty split fails at once.
   struct Source {
@@ -44,19 +57,29 @@ EvalResults evaluate(const EvalOptions& opt) {
   r.working_directory = fs::current_path(ec).string();
   r.max_seconds = opt.max_seconds;
   r.windows_us = opt.windows_us;
-  ModelResult m;
-  m.path = opt.model_path;
-  m.name = model.name;
-  m.time_step_ms = double(time_step_us(model)) / 1000.0;
-  m.iir = opt.iir;
+  // One result per model, then per baseline; each sequence is loaded once for all of them.
+  const size_t runs = models.size() + opt.baselines.size();
+  std::vector<ModelResult> res(runs);
+  for (size_t i = 0; i < models.size(); ++i) {
+    res[i].path = paths[i];
+    res[i].name = models[i].name;
+    res[i].time_step_ms = double(time_step_us(models[i])) / 1000.0;
+    res[i].iir = opt.iir;
+  }
+  for (size_t i = 0; i < opt.baselines.size(); ++i) {
+    ModelResult& m = res[models.size() + i];
+    m.path = "baseline:" + opt.baselines[i];
+    m.name = "every event moving";
+    m.time_step_ms = 0;
+  }
 
-  ProgressBar bar("eval", total, "seq", opt.progress);
+  ProgressBar bar("eval", total * runs, "runs", opt.progress);
   SequenceScoreOptions so;
   so.threads = opt.threads;
   so.max_us = opt.max_seconds > 0 ? int64_t(opt.max_seconds * 1e6 + 0.5) : 0;
   size_t done = 0;
   for (const auto& s : sources) {
-    std::vector<SequenceScore> scores;
+    std::vector<std::vector<SequenceScore>> scores(runs);
     for (const auto& f : s.files) {
       if (interrupted()) break;
       const std::string name = fs::path(f).filename().string();
@@ -64,18 +87,28 @@ EvalResults evaluate(const EvalOptions& opt) {
       bar.update(done);
       const LabelledSequence seq = load_sequence(f, s.src.mask_dilation);
       const uint64_t n = seq.events.size();
-      so.progress = [&](uint64_t k) {
-        bar.set_status(name + " " + std::to_string(n ? 100 * k / n : 100) + " %");
-        bar.update(done);
-        return !interrupted();
-      };
-      SequenceScore sc = score_sequence(model, seq, opt.windows_us, so);
-      if (!sc.complete) break;
-      scores.push_back(std::move(sc));
-      bar.update(++done);
+      bool complete = true;
+      for (size_t i = 0; i < runs && complete; ++i) {
+        so.progress = [&](uint64_t k) {
+          bar.set_status(name + " " + std::to_string(n ? 100 * k / n : 100) + " %");
+          bar.update(done);
+          return !interrupted();
+        };
+        SequenceScore sc = i < models.size() ? score_sequence(models[i], seq, opt.windows_us, so)
+                                             : score_all_events(seq, opt.windows_us, so);
+        complete = sc.complete;
+        if (complete) scores[i].push_back(std::move(sc));
+        bar.update(++done);
+      }
+      if (!complete) {  // interrupted mid-sequence: keep whole sequences only
+        for (auto& v : scores)
+          if (v.size() > scores[runs - 1].size()) v.pop_back();
+        break;
+      }
     }
-    if (!scores.empty() || !interrupted())
-      m.datasets.push_back(dataset_result(s.src.path, s.folder ? opt.split : "", scores));
+    if (!scores[0].empty() || !interrupted())
+      for (size_t i = 0; i < runs; ++i)
+        res[i].datasets.push_back(dataset_result(s.src.path, s.folder ? opt.split : "", scores[i]));
     if (interrupted()) {
       r.interrupted = true;
       break;
@@ -83,7 +116,7 @@ EvalResults evaluate(const EvalOptions& opt) {
   }
   bar.set_status("");
   bar.finish();
-  r.models.push_back(std::move(m));
+  r.models = std::move(res);
   return r;
 }
 

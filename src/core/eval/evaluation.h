@@ -13,7 +13,11 @@
 namespace spikems {
 
 struct EvalOptions {
-  std::string model_path;
+  std::string model_path;           // one model (kept for callers that score one)
+  std::vector<std::string> models;  // several models, scored on the same sequences after it
+  // Baselines scored beside the models: "all-events" (P = every pixel with an event; a
+  // network that cannot tell motion apart scores this). See baseline_scorer.h.
+  std::vector<std::string> baselines;
   std::vector<std::string> data;  // simulator folders (manifest.json) or labelled files
   std::string split = "test";     // simulator folders: train, val, test or all
   std::vector<int64_t> windows_us = {20000, 100000};
@@ -24,7 +28,7 @@ struct EvalOptions {
   std::string command_line;  // recorded in the results
 };
 
-// Loads the model and checks the windows and every data source before the first sequence
+// Loads the models and checks the windows and every data source before the first sequence
 // runs; Ctrl-C (when util/interrupt.h's flag is installed) stops at the next chunk and returns
 // the sequences finished so far, marked interrupted. Throws Error naming the file and what to
 // do: unreadable or invalid model, a window that is not a multiple of the model's step, a
