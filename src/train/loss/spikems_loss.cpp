@@ -59,6 +59,19 @@ torch::Tensor bce_loss(const torch::Tensor& out, const torch::Tensor& input,
   return (l * had).sum() / torch::clamp_min(n, 1.0);
 }
 
+torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input,
+                            const torch::Tensor& fg_mask, const LossOptions& o) {
+  TORCH_CHECK(
+      out.size(1) == input.size(1) && out.size(3) == input.size(3) && out.size(4) == input.size(4),
+      "loss: output and input must share batch and pixel grid (use align_to_input)");
+  torch::Tensor p = -torch::expm1(-spike_projection(out, o.ts) / o.kappa);  // [B, H, W]
+  torch::Tensor y = (foreground_target(input.detach(), fg_mask).sum(std::vector<int64_t>{0, 2}) > 0)
+                        .to(out.dtype());
+  const std::vector<int64_t> px{1, 2};
+  torch::Tensor inter = (p * y).sum(px), uni = (p + y - p * y).sum(px);
+  return (1 - (inter + 1) / (uni + 1)).mean();
+}
+
 torch::Tensor van_rossum_loss(const torch::Tensor& out, const torch::Tensor& target,
                               const LossOptions& o) {
   torch::Tensor tgt = target;

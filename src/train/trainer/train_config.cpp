@@ -213,6 +213,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("sample", "noise_hz_max", s.noise_hz_max);
   b.bind("loss", "kind", c.loss);
   b.bind("loss", "lambda", c.lambda);
+  b.bind("loss", "iou_weight", c.iou_weight);
   b.bind("loss", "projection", c.projection);
   b.bind("loss", "alpha", c.alpha);
   b.bind("loss", "beta", c.beta);
@@ -272,7 +273,8 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
     if (v < 0 || v > 1) b.bad("sample", k, "must lie in [0, 1]");
   if (s.threshold_jitter < 0) b.bad("sample", "threshold_jitter", "must not be negative");
   if (s.noise_hz_max < 0) b.bad("sample", "noise_hz_max", "must not be negative");
-  one_of(b, "loss", "kind", c.loss, {"bce", "spike", "both"});
+  one_of(b, "loss", "kind", c.loss, {"bce", "spike", "both", "iou"});
+  if (c.iou_weight < 0) b.bad("loss", "iou_weight", "must not be negative");
   one_of(b, "loss", "projection", c.projection, {"sigmoid", "exponential"});
   if (c.lambda < 0) b.bad("loss", "lambda", "must not be negative");
   if (c.activity_weight < 0) b.bad("loss", "activity_weight", "must not be negative");

@@ -26,8 +26,9 @@ struct TrainConfig {
   // [sample]
   SampleOptions sample;
   // [loss]
-  std::string loss = "both";           // bce | spike | both
+  std::string loss = "both";           // bce | spike | both | iou
   double lambda = 0.1;                 // weight of L_spike
+  double iou_weight = 0;               // weight of the soft-IoU term (kind "iou": it alone)
   std::string projection = "sigmoid";  // sigmoid | exponential
   double alpha = 4.0, beta = 0.5, kappa = 1.0;
   bool all_pixels = true;

@@ -73,7 +73,7 @@ LossOptions loss_options(const TrainConfig& c, double ts) {
 }
 
 struct StepOutput {
-  torch::Tensor total, bce, spike, activity;
+  torch::Tensor total, bce, spike, iou, activity;
   std::vector<double> rates;
   torch::Tensor out_window, fg_window;
 };
@@ -87,8 +87,12 @@ StepOutput forward_loss(SpikeMSNetwork& net, const BatchTensors& bt, const Train
   torch::Tensor out = align_to_input(layers.back(), H, W).narrow(0, w0, tw);
   torch::Tensor in = bt.input.narrow(0, w0, tw), fg = bt.fg.narrow(0, w0, tw);
   const auto zero = torch::zeros({}, out.options());
-  o.bce = c.loss != "spike" ? bce_loss(out, in, fg, lo) : zero;
-  o.spike = c.loss != "bce" ? van_rossum_loss(out, foreground_target(in, fg), lo) : zero;
+  const bool use_bce = c.loss == "bce" || c.loss == "both";
+  const bool use_spike = c.loss == "spike" || c.loss == "both";
+  const double iou_w = c.loss == "iou" ? 1.0 : c.iou_weight;
+  o.bce = use_bce ? bce_loss(out, in, fg, lo) : zero;
+  o.spike = use_spike ? van_rossum_loss(out, foreground_target(in, fg), lo) : zero;
+  o.iou = iou_w > 0 ? soft_iou_loss(out, in, fg, lo) : zero;
   o.activity = zero;
   for (size_t k = 0; k < layers.size(); ++k) {
     // Over the window only: in the warm-up the deep layers are still filling up (each adds
@@ -99,8 +103,7 @@ StepOutput forward_loss(SpikeMSNetwork& net, const BatchTensors& bt, const Train
     if (c.floor_weight > 0 && c.rate_floor > 0 && k + 1 < layers.size())
       o.activity = o.activity + c.floor_weight * torch::relu(1 - rate / c.rate_floor).pow(2);
   }
-  o.total = (c.loss == "spike" ? zero : o.bce) + (c.loss == "bce" ? zero : lo.lambda * o.spike) +
-            o.activity;
+  o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity;
   o.out_window = out;
   o.fg_window = fg;
   return o;
@@ -370,7 +373,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
   TrainResult res;
   double ema_loss = -1, ema_iou = -1;
   WindowScores train_ws;
-  double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_act = 0;
+  double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_soft_iou = 0, sum_act = 0;
   std::vector<double> sum_rates(net->size(), 0.0);
   int in_sum = 0;
   auto seg_start = std::chrono::steady_clock::now();
@@ -406,6 +409,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
     sum_loss += loss;
     sum_bce += o.bce.item<double>();
     sum_spike += o.spike.item<double>();
+    sum_soft_iou += o.iou.item<double>();
     sum_act += o.activity.item<double>();
     for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += o.rates[k];
     ++in_sum;
@@ -425,6 +429,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
                 {"loss", sum_loss / in_sum},
                 {"bce", sum_bce / in_sum},
                 {"spike", sum_spike / in_sum},
+                {"soft_iou_loss", sum_soft_iou / in_sum},
                 {"activity", sum_act / in_sum},
                 {"iou", 100 * train_ws.mean_iou()},
                 {"detection_rate", 100 * train_ws.detection_rate()},
@@ -434,7 +439,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
                  double(in_sum * c.batch) / std::max(1e-9, st.wall_seconds - res.wall_seconds)},
                 {"wall_s", st.wall_seconds}});
       res.wall_seconds = st.wall_seconds;
-      sum_loss = sum_bce = sum_spike = sum_act = 0;
+      sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = 0;
       std::fill(sum_rates.begin(), sum_rates.end(), 0.0);
       in_sum = 0;
       train_ws = WindowScores();
