@@ -233,6 +233,14 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(msg({"loss.kind=hinge"}).find("loss.kind: \"hinge\" is not one of bce, spike, both"),
             std::string::npos);
   EXPECT_NE(msg({"model.init_rates=[0.1]"}).find("model.init_rates"), std::string::npos);
+  EXPECT_NE(msg({"loss.output_floor=1.5"}).find("loss.output_floor: must lie in [0, 1)"),
+            std::string::npos);
+  EXPECT_NE(msg({"loss.iou_weight=-1.0"}).find("loss.iou_weight: must not be negative"),
+            std::string::npos);
+  EXPECT_NE(msg({"run.val_full_s=-1.0"}).find("run.val_full_s"), std::string::npos);
+  EXPECT_NE(msg({"run.val_full_s=0.5", "run.val_full_window_ms=1.5"})
+                .find("run.val_full_window_ms: must be a multiple of sample.step_ms"),
+            std::string::npos);
   EXPECT_NE(msg({"data.train=[{path=\"x\", wieght=2}]"}).find("entry key \"wieght\""),
             std::string::npos);
   EXPECT_NE(msg({"optim.lr"}).find("expected section.key=value"), std::string::npos);

@@ -224,6 +224,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("loss", "activity_weight", c.activity_weight);
   b.bind("loss", "rate_floor", c.rate_floor);
   b.bind("loss", "floor_weight", c.floor_weight);
+  b.bind("loss", "output_floor", c.output_floor);
   b.bind("optim", "lr", c.lr);
   b.bind("optim", "min_lr", c.min_lr);
   b.bind("optim", "weight_decay", c.weight_decay);
@@ -280,6 +281,8 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.activity_weight < 0) b.bad("loss", "activity_weight", "must not be negative");
   if (c.rate_floor < 0 || c.rate_floor >= 1) b.bad("loss", "rate_floor", "must lie in [0, 1)");
   if (c.floor_weight < 0) b.bad("loss", "floor_weight", "must not be negative");
+  if (c.output_floor < 0 || c.output_floor >= 1)
+    b.bad("loss", "output_floor", "must lie in [0, 1)");
   positive(b, "loss", "pos_weight", c.pos_weight);
   positive(b, "optim", "lr", c.lr);
   one_of(b, "optim", "schedule", c.schedule, {"cosine", "step", "constant"});

@@ -39,6 +39,9 @@ struct TrainConfig {
   // pay floor_weight * ((rate_floor - rate) / rate_floor)^2: a layer that falls silent passes
   // no surrogate gradient and never recovers (Zenke & Vogels 2021 use such lower bounds).
   double rate_floor = 0.005, floor_weight = 1.0;
+  // The same lower bound for the output layer (0: none): a loss that punishes false positives
+  // hard (soft IoU on crops without moving objects) can silence it for good.
+  double output_floor = 0;
   // [optim]
   double lr = 1e-3, min_lr = 1e-5, weight_decay = 0;
   bool amsgrad = true;

@@ -100,8 +100,9 @@ StepOutput forward_loss(SpikeMSNetwork& net, const BatchTensors& bt, const Train
     const torch::Tensor rate = layers[k].narrow(0, w0, tw).mean() * ts;
     o.rates.push_back(rate.item<double>());
     if (c.activity_weight > 0) o.activity = o.activity + c.activity_weight * rate;
-    if (c.floor_weight > 0 && c.rate_floor > 0 && k + 1 < layers.size())
-      o.activity = o.activity + c.floor_weight * torch::relu(1 - rate / c.rate_floor).pow(2);
+    const double floor = k + 1 < layers.size() ? c.rate_floor : c.output_floor;
+    if (c.floor_weight > 0 && floor > 0)
+      o.activity = o.activity + c.floor_weight * torch::relu(1 - rate / floor).pow(2);
   }
   o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity;
   o.out_window = out;
