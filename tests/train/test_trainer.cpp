@@ -235,6 +235,9 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(msg({"model.init_rates=[0.1]"}).find("model.init_rates"), std::string::npos);
   EXPECT_NE(msg({"loss.output_floor=1.5"}).find("loss.output_floor: must lie in [0, 1)"),
             std::string::npos);
+  EXPECT_NE(
+      msg({"loss.rate_ceiling=0.001"}).find("loss.rate_ceiling: must be above loss.rate_floor"),
+      std::string::npos);
   EXPECT_NE(msg({"loss.iou_weight=-1.0"}).find("loss.iou_weight: must not be negative"),
             std::string::npos);
   EXPECT_NE(msg({"run.val_full_s=-1.0"}).find("run.val_full_s"), std::string::npos);

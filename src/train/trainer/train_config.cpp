@@ -225,6 +225,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("loss", "rate_floor", c.rate_floor);
   b.bind("loss", "floor_weight", c.floor_weight);
   b.bind("loss", "output_floor", c.output_floor);
+  b.bind("loss", "rate_ceiling", c.rate_ceiling);
   b.bind("optim", "lr", c.lr);
   b.bind("optim", "min_lr", c.min_lr);
   b.bind("optim", "weight_decay", c.weight_decay);
@@ -281,6 +282,9 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.activity_weight < 0) b.bad("loss", "activity_weight", "must not be negative");
   if (c.rate_floor < 0 || c.rate_floor >= 1) b.bad("loss", "rate_floor", "must lie in [0, 1)");
   if (c.floor_weight < 0) b.bad("loss", "floor_weight", "must not be negative");
+  if (c.rate_ceiling < 0 || c.rate_ceiling > 1) b.bad("loss", "rate_ceiling", "must lie in [0, 1]");
+  if (c.rate_ceiling > 0 && c.rate_ceiling <= c.rate_floor)
+    b.bad("loss", "rate_ceiling", "must be above loss.rate_floor (or 0: off)");
   if (c.output_floor < 0 || c.output_floor >= 1)
     b.bad("loss", "output_floor", "must lie in [0, 1)");
   positive(b, "loss", "pos_weight", c.pos_weight);

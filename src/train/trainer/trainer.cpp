@@ -103,6 +103,8 @@ StepOutput forward_loss(SpikeMSNetwork& net, const BatchTensors& bt, const Train
     const double floor = k + 1 < layers.size() ? c.rate_floor : c.output_floor;
     if (c.floor_weight > 0 && floor > 0)
       o.activity = o.activity + c.floor_weight * torch::relu(1 - rate / floor).pow(2);
+    if (c.floor_weight > 0 && c.rate_ceiling > 0 && k + 1 < layers.size())
+      o.activity = o.activity + c.floor_weight * torch::relu(rate / c.rate_ceiling - 1).pow(2);
   }
   o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity;
   o.out_window = out;
