@@ -54,8 +54,10 @@ torch::Tensor van_rossum_loss(const torch::Tensor& out, const torch::Tensor& tar
 // Soft IoU (Jaccard), beyond the paper: the evaluation's metric made differentiable, immune to
 // the class imbalance that makes plain L_bce fall silent. Per sample, p = 1 - exp(-P / kappa)
 // (0 where the output is silent, at every pixel: a spike where no event fell is a false
-// positive of the IoU too), y as in L_bce; L = mean_b [1 - (sum p y + 1) / (sum (p + y - p y)
-// + 1)]. The +1 makes a sample without moving objects pay for its spikes: 1 - 1 / (sum p + 1).
+// positive of the IoU too), y as in L_bce; L = mean over the samples with moving objects of
+// 1 - (sum p y + 1) / (sum (p + y - p y) + 1); 0 when no sample has any. Samples without
+// moving objects are left out, as the metric skips such windows (counted in, they made silence
+// the cheapest answer: measured); L_bce or the sparsity term handle their false positives.
 torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input,
                             const torch::Tensor& fg_mask, const LossOptions& o);
 // target = input masked by the foreground mask, [T, B, C, H, W].
