@@ -165,7 +165,9 @@ TEST_F(EvalCli, RangesCutsAndSeveralSources) {
 // late) scores close to the baseline that predicts every event pixel at once.
 TEST_F(EvalCli, SeveralModelsAndTheAllEventsBaseline) {
   const std::string o = dir_ + "/out_several";
-  const std::string copy = dir_ + "/pass_all_copy.safetensors";
+  // The same file name in another folder: the table then names the models by their paths.
+  fs::create_directories(dir_ + "/b");
+  const std::string copy = dir_ + "/b/pass_all.safetensors";
   fs::copy_file(model(), copy, fs::copy_options::overwrite_existing);
   std::string out;
   ASSERT_EQ(run_command(eval("--model " + copy + " --baseline all-events --data " + data() +
@@ -188,6 +190,8 @@ TEST_F(EvalCli, SeveralModelsAndTheAllEventsBaseline) {
     EXPECT_NEAR(a["iou_mean"].get<double>(), c["iou_mean"].get<double>(), 5.0) << "window " << w;
   }
   EXPECT_NE(slurp(o + "/results.md").find("every event moving"), std::string::npos);
+  EXPECT_NE(out.find("| " + copy + " "), std::string::npos) << out;
+  EXPECT_NE(out.find("| " + model() + " "), std::string::npos) << out;
   EXPECT_NE(run_command(eval("--baseline none --data " + data()), &out), 0);
   EXPECT_NE(out.find("--baseline"), std::string::npos) << out;
 }

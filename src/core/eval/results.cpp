@@ -227,13 +227,21 @@ std::string results_csv(const EvalResults& r) {
   return out;
 }
 
+// The model column: the file name, or the path as given where two models share a file name
+// (runs/a/best.safetensors against runs/b/best.safetensors).
+static std::string model_label(const EvalResults& r, const ModelResult& m) {
+  for (const auto& o : r.models)
+    if (&o != &m && file_name(o.path) == file_name(m.path)) return m.path;
+  return file_name(m.path);
+}
+
 std::string results_table(const EvalResults& r) {
   std::vector<std::vector<std::string>> rows;
   for (const auto& m : r.models)
     for (const auto& d : m.datasets)
       for (const auto& w : d.windows) {
         auto sc = score_cells(w);
-        rows.push_back({file_name(m.path), d.data, d.split.empty() ? "–" : d.split,
+        rows.push_back({model_label(r, m), d.data, d.split.empty() ? "–" : d.split,
                         fmt("%g", window_ms(w.window_us)), sc[0], sc[1], std::to_string(w.windows),
                         std::to_string(w.skipped), std::to_string(w.sequences)});
       }
@@ -265,7 +273,7 @@ std::string results_markdown(const EvalResults& r) {
       for (const auto& s : d.sequences)
         for (const auto& w : s.windows) {
           auto sc = score_cells(w);
-          rows.push_back({file_name(m.path), file_name(s.name), fmt("%g", window_ms(w.window_us)),
+          rows.push_back({model_label(r, m), file_name(s.name), fmt("%g", window_ms(w.window_us)),
                           sc[0], sc[1], std::to_string(w.windows), std::to_string(w.skipped)});
         }
   out += markdown_table(
