@@ -11,21 +11,12 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
                                const SequenceScoreOptions& opt) {
   const EventStream& ev = seq.events;
   check_windows(windows_us, 1, "baseline '" + std::string(kAllEventsBaseline) + "'");
-  if (!ev.empty() && !ev.has_labels())
-    fail(seq.name, "", "no labels: scoring needs per-event labels (1 = moving object)");
+  const auto [n, t0, end] = scored_span(seq, opt.max_us);
   SequenceScore r;
   r.name = seq.name;
   r.windows_us = windows_us;
   r.scores.resize(windows_us.size());
   if (ev.empty()) return r;
-
-  const int64_t t0 = ev.t_first();
-  size_t n = ev.size();
-  int64_t end = ev.t_last() + 1;
-  if (opt.max_us > 0 && ev.t_last() >= t0 + opt.max_us) {
-    n = ev.time_range(t0, t0 + opt.max_us).second;
-    end = t0 + opt.max_us;
-  }
 
   WindowScorer scorer(ev.sensor, windows_us);
   const int64_t F = scorer.frame_us();

@@ -34,28 +34,33 @@ void check_windows(const std::vector<int64_t>& windows_us, int64_t step_us,
   }
 }
 
+ScoredSpan scored_span(const LabelledSequence& seq, int64_t max_us) {
+  const EventStream& ev = seq.events;
+  if (!ev.empty() && !ev.has_labels())
+    fail(seq.name, "", "no labels: scoring needs per-event labels (1 = moving object)");
+  ScoredSpan s;
+  if (ev.empty()) return s;
+  s.t0 = ev.t_first();
+  s.n = ev.size();
+  s.end = ev.t_last() + 1;
+  if (max_us > 0 && ev.t_last() >= s.t0 + max_us) {
+    s.n = ev.time_range(s.t0, s.t0 + max_us).second;
+    s.end = s.t0 + max_us;
+  }
+  return s;
+}
+
 SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq,
                              const std::vector<int64_t>& windows_us,
                              const SequenceScoreOptions& opt) {
   const EventStream& ev = seq.events;
   check_windows(windows_us, time_step_us(model), "model '" + model.name + "'");
-  if (!ev.empty() && !ev.has_labels())
-    fail(seq.name, "", "no labels: scoring needs per-event labels (1 = moving object)");
+  const auto [n, t0, end] = scored_span(seq, opt.max_us);
   SequenceScore r;
   r.name = seq.name;
   r.windows_us = windows_us;
   r.scores.resize(windows_us.size());
   if (ev.empty()) return r;
-
-  // The data scored: [t0, end); a cut (max_us) ends exactly at t0 + max_us when the sequence
-  // goes on past it, otherwise the data ends just after the last event.
-  const int64_t t0 = ev.t_first();
-  size_t n = ev.size();
-  int64_t end = ev.t_last() + 1;
-  if (opt.max_us > 0 && ev.t_last() >= t0 + opt.max_us) {
-    n = ev.time_range(t0, t0 + opt.max_us).second;
-    end = t0 + opt.max_us;
-  }
 
   WindowScorer scorer(ev.sensor, windows_us);
   SegmenterOptions so;

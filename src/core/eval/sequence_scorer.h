@@ -41,6 +41,15 @@ int64_t time_step_us(const ModelSpec& model);
 void check_windows(const std::vector<int64_t>& windows_us, int64_t step_us,
                    const std::string& source);
 
+// The part of a labelled sequence that is scored: events [0, n), time [t0, end). A cut
+// (max_us > 0) ends exactly at t0 + max_us when the sequence goes on past it; otherwise the data
+// ends just after the last event. Throws Error (naming the sequence) when events lack labels.
+struct ScoredSpan {
+  size_t n = 0;
+  int64_t t0 = 0, end = 0;
+};
+ScoredSpan scored_span(const LabelledSequence& seq, int64_t max_us);
+
 // Windows start at the first event; the last, partial window is dropped. Throws Error (naming
 // the sequence) for unlabelled events, a model that does not fit the sensor, or a bad window.
 SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq,

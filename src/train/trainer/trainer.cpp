@@ -457,14 +457,15 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
         save_model_file((dir / "best.safetensors").string());
       }
       curves.write((dir / "curves.svg").string());
-      if (ro.progress)
-        std::fprintf(
-            stderr, "%sval step %lld: IoU %s %%%s (best %s at %lld), detection %s %%\n",
-            isatty(2) ? "\n" : "", (long long)st.step, percent(v["iou"].get<double>()).c_str(),
-            full_val ? (", whole sensor " + percent(v["full_iou"].get<double>()) + " %").c_str()
-                     : "",
-            percent(st.best_val_iou).c_str(), (long long)st.best_step,
-            percent(v["detection_rate"].get<double>()).c_str());
+      if (ro.progress) {
+        const std::string whole =
+            full_val ? ", whole sensor " + percent(v["full_iou"].get<double>()) + " %" : "";
+        std::fprintf(stderr, "%sval step %lld: IoU %s %%%s (best %s at %lld), detection %s %%\n",
+                     isatty(2) ? "\n" : "", (long long)st.step,
+                     percent(v["iou"].get<double>()).c_str(), whole.c_str(),
+                     percent(st.best_val_iou).c_str(), (long long)st.best_step,
+                     percent(v["detection_rate"].get<double>()).c_str());
+      }
     }
     if (st.step % c.checkpoint_every == 0 || st.step == c.steps) checkpoint();
   }
