@@ -149,17 +149,13 @@ struct Curves {
       pv.y_label = "%";
       pv.y_min = 0;
       pv.y_max = 100;
+      std::vector<PlotSeries> series;
+      series.push_back({"IoU (crops)", val_step, val_iou, {}, ""});
+      series.push_back({"detection rate", val_step, val_det, {}, ""});
+      if (!full_step.empty()) series.push_back({"IoU (whole sensor)", full_step, full_iou, {}, ""});
       all = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"640\" height=\"700\">" +
             std::string("<g>") + svg + "</g><g transform=\"translate(0,320)\">" +
-            svg_line_plot(
-                full_step.empty()
-                    ? std::vector<PlotSeries>{{"IoU (crops)", val_step, val_iou, {}, ""},
-                                              {"detection rate", val_step, val_det, {}, ""}}
-                    : std::vector<PlotSeries>{{"IoU (crops)", val_step, val_iou, {}, ""},
-                                              {"detection rate", val_step, val_det, {}, ""},
-                                              {"IoU (whole sensor)", full_step, full_iou, {}, ""}},
-                pv) +
-            "</g></svg>";
+            svg_line_plot(series, pv) + "</g></svg>";
     }
     write_svg(path, all);
   }
