@@ -316,7 +316,7 @@ __attribute__((always_inline)) inline void sample_row(int W, const int32_t* tex,
     u -= fast_floor(u);
     v -= fast_floor(v);
     const float lod = fast_log2(std::max(foot[x] * Texture::kTile, 1e-6f));
-    const bool fine = lod <= 0, flat = !ok | (!fine & (lod >= float(last)));
+    const bool fine = lod <= 0, flat = (!ok) | ((!fine) & (lod >= float(last)));
     const int32_t l = int32_t(sel(fine | flat, 0.f, lod));
     l0v[x] = l;
     av[x] = lod - float(l);
