@@ -12,10 +12,7 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
   const EventStream& ev = seq.events;
   check_windows(windows_us, 1, "baseline '" + std::string(kAllEventsBaseline) + "'");
   const auto [n, t0, end] = scored_span(seq, opt.max_us);
-  SequenceScore r;
-  r.name = seq.name;
-  r.windows_us = windows_us;
-  r.scores.resize(windows_us.size());
+  SequenceScore r = empty_score(seq, windows_us);
   if (ev.empty()) return r;
 
   WindowScorer scorer(ev.sensor, windows_us);

@@ -50,16 +50,21 @@ ScoredSpan scored_span(const LabelledSequence& seq, int64_t max_us) {
   return s;
 }
 
+SequenceScore empty_score(const LabelledSequence& seq, const std::vector<int64_t>& windows_us) {
+  SequenceScore r;
+  r.name = seq.name;
+  r.windows_us = windows_us;
+  r.scores.resize(windows_us.size());
+  return r;
+}
+
 SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq,
                              const std::vector<int64_t>& windows_us,
                              const SequenceScoreOptions& opt) {
   const EventStream& ev = seq.events;
   check_windows(windows_us, time_step_us(model), "model '" + model.name + "'");
   const auto [n, t0, end] = scored_span(seq, opt.max_us);
-  SequenceScore r;
-  r.name = seq.name;
-  r.windows_us = windows_us;
-  r.scores.resize(windows_us.size());
+  SequenceScore r = empty_score(seq, windows_us);
   if (ev.empty()) return r;
 
   WindowScorer scorer(ev.sensor, windows_us);

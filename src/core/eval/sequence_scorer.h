@@ -49,6 +49,8 @@ struct ScoredSpan {
   int64_t t0 = 0, end = 0;
 };
 ScoredSpan scored_span(const LabelledSequence& seq, int64_t max_us);
+// A score for `seq` with one empty WindowScores per length (complete; filled by the scorers).
+SequenceScore empty_score(const LabelledSequence& seq, const std::vector<int64_t>& windows_us);
 
 // Windows start at the first event; the last, partial window is dropped. Throws Error (naming
 // the sequence) for unlabelled events, a model that does not fit the sensor, or a bad window.
