@@ -281,6 +281,62 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(out.find("a `spikems train` run folder?"), std::string::npos) << out;
 }
 
+TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
+  // The ANN-2D baseline through the same loop, set up as the SNN's test above (one sequence,
+  // no augmentation): its loss falls, its IoU rises, and the whole-sensor validation is
+  // `spikems eval`'s number for its model file.
+  const std::string dir = scratch_dir() + "/ann";
+  const std::string data = scratch_dir() + "/data";
+  std::string out;
+  ASSERT_EQ(run_command(spikems_binary() +
+                            " simulate --preset tiny --sequences 1 --duration 0.2s --seed 5 "
+                            "--threads 1 --no-progress --out " +
+                            data,
+                        &out),
+            0)
+      << out;
+  auto ov = tiny_overrides(100);
+  const std::string one = "[{path=\"" + data + "/seq_0000.h5\"}]";
+  ov.push_back("data.train=" + one);
+  ov.push_back("data.val=" + one);
+  for (const char* k :
+       {"flip_x", "flip_y", "polarity_swap", "drop_max", "threshold_jitter", "noise_hz_max"})
+    ov.push_back(std::string("sample.") + k + "=0.0");
+  for (const char* k : {"model.type=ann2d", "sample.warmup_ms=0", "sample.centred_fraction=1.0",
+                        "loss.kind=bce", "loss.iou_weight=1.0", "optim.lr=0.003",
+                        "run.val_every=100", "run.val_full_s=0.2", "run.val_full_window_ms=20"})
+    ov.push_back(k);
+  TrainConfig cfg = load_train_config(config_path(), ov);
+  TrainRunOptions ro;
+  ro.out_dir = dir;
+  ro.progress = false;
+  EXPECT_EQ(run_training(cfg, ro).steps, 100);
+  auto train = read_log(dir, "train");
+  ASSERT_EQ(train.size(), 100u);
+  double first = 0, last = 0;
+  for (int i = 0; i < 10; ++i) {
+    first += train[size_t(i)]["loss"].get<double>();
+    last += train[size_t(90 + i)]["loss"].get<double>();
+  }
+  EXPECT_LT(last, 0.7 * first) << "mean loss of steps 1-10 vs 91-100";
+  auto val = read_log(dir, "val");
+  ASSERT_EQ(val.size(), 2u);
+  EXPECT_GT(val[1]["iou"].get<double>(), val[0]["iou"].get<double>() + 10.0);
+  EXPECT_GT(val[1]["full_iou"].get<double>(), val[0]["full_iou"].get<double>() + 10.0);
+  const ModelSpec m = load_model(dir + "/model.safetensors");
+  EXPECT_EQ(m.type, ModelType::ANN2D);
+  EvalOptions eo;
+  eo.model_path = dir + "/model.safetensors";
+  eo.data = {data + "/seq_0000.h5"};
+  eo.windows_us = {20000};
+  eo.max_seconds = 0.2;
+  const WindowSummary w = evaluate(eo).models.at(0).datasets.at(0).windows.at(0);
+  ASSERT_GT(w.windows, 0u);
+  EXPECT_NEAR(val[1]["full_iou"].get<double>(), w.iou_mean, 1e-9);
+  // ann2d has no spike trains: L_spike is refused.
+  EXPECT_THROW(load_train_config(config_path(), {"model.type=ann2d", "loss.kind=both"}), Error);
+}
+
 TEST(Trainer, NonFiniteLossStopsNamingTheStep) {
   const std::string dir = scratch_dir() + "/run";
   auto ov = tiny_overrides(10);

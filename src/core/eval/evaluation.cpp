@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "core/dataset/sequence.h"
+#include "core/eval/ann_scorer.h"
 #include "core/eval/baseline_scorer.h"
 #include "core/eval/sequence_scorer.h"
 #include "core/util/error.h"
@@ -26,7 +27,7 @@ EvalResults evaluate(const EvalOptions& opt) {
   std::vector<ModelSpec> models;
   for (const auto& p : paths) {
     ModelSpec m = load_model(p);
-    if (opt.iir) m = with_iir_neurons(std::move(m), p);
+    if (opt.iir && m.type == ModelType::SNN) m = with_iir_neurons(std::move(m), p);
     check_windows(opt.windows_us, time_step_us(m), p);
     models.push_back(std::move(m));
   }
@@ -94,8 +95,10 @@ EvalResults evaluate(const EvalOptions& opt) {
           bar.update(done);
           return !interrupted();
         };
-        SequenceScore sc = i < models.size() ? score_sequence(models[i], seq, opt.windows_us, so)
-                                             : score_all_events(seq, opt.windows_us, so);
+        SequenceScore sc = i >= models.size() ? score_all_events(seq, opt.windows_us, so)
+                           : models[i].type == ModelType::ANN2D
+                               ? score_ann_sequence(models[i], seq, opt.windows_us, so)
+                               : score_sequence(models[i], seq, opt.windows_us, so);
         complete = sc.complete;
         if (complete) scores[i].push_back(std::move(sc));
         bar.update(++done);

@@ -44,10 +44,12 @@ void ModelSpec::validate(const std::string& src) const {
            "weight has " + std::to_string(l.weight.size()) + " values, expected " +
                std::to_string(l.weight_count()));
     const auto& n = l.neuron;
-    if (!(n.theta > 0) || !(n.tau_s > 0) || !(n.tau_r > 0) || !(n.scale_ref >= 0) ||
-        !std::isfinite(n.theta) || !std::isfinite(n.tau_s) || !std::isfinite(n.tau_r))
+    if (type == ModelType::SNN &&
+        (!(n.theta > 0) || !(n.tau_s > 0) || !(n.tau_r > 0) || !(n.scale_ref >= 0) ||
+         !std::isfinite(n.theta) || !std::isfinite(n.tau_s) || !std::isfinite(n.tau_r)))
       fail(src, where, "neuron parameters must be positive and finite");
-    if (n.discretisation == Discretisation::FIR && (l.srm_kernel.empty() || l.ref_kernel.empty()))
+    if (type == ModelType::SNN && n.discretisation == Discretisation::FIR &&
+        (l.srm_kernel.empty() || l.ref_kernel.empty()))
       fail(src, where, "FIR layer without sampled kernels");
     if (l.srm_kernel.size() > 100000 || l.ref_kernel.size() > 100000)
       fail(src, where, "kernel longer than 100000 steps");
@@ -55,7 +57,16 @@ void ModelSpec::validate(const std::string& src) const {
       fail(src, where, "delay must have one value per output channel");
     for (float v : l.weight)
       if (!std::isfinite(v)) fail(src, where, "weight contains NaN or infinity");
+    if (type == ModelType::ANN2D && int(l.bias.size()) != l.out_channels)
+      fail(src, where, "an ANN-2D layer needs one bias per output channel");
+    if (type == ModelType::SNN && !l.bias.empty()) fail(src, where, "a spiking layer has no bias");
+    for (float v : l.bias)
+      if (!std::isfinite(v)) fail(src, where, "bias contains NaN or infinity");
   }
+  if (type == ModelType::ANN2D &&
+      (layers.front().in_channels != 4 || layers.back().out_channels != 1))
+    fail(src, "",
+         "an ANN-2D model takes 4 input channels (ann_features.h) and gives 1 output channel");
   if (input_width > 0 && input_height > 0) {
     auto [oh, ow] = output_size(input_height, input_width);
     if (oh <= 0 || ow <= 0) fail(src, "", "input size is too small for this network");
@@ -169,6 +180,19 @@ ModelSpec spikems_architecture(bool padded, Discretisation d) {
   return s;
 }
 
+ModelSpec ann2d_architecture() {
+  ModelSpec s = spikems_architecture(true, Discretisation::IIR);
+  s.name = "ann2d";
+  s.type = ModelType::ANN2D;
+  s.layers.front().in_channels = 4;
+  s.layers.back().out_channels = 1;
+  for (auto& l : s.layers) {
+    l.weight.assign(size_t(l.weight_count()), 0.f);
+    l.bias.assign(size_t(l.out_channels), 0.f);
+  }
+  return s;
+}
+
 namespace {
 
 const char* kind_name(LayerKind k) {
@@ -191,6 +215,7 @@ E parse_enum(const nlohmann::json& j, const char* key,
 nlohmann::json spec_to_json(const ModelSpec& s) {
   nlohmann::json j;
   j["name"] = s.name;
+  if (s.type == ModelType::ANN2D) j["type"] = "ann2d";
   j["time_step_ms"] = s.time_step_ms;
   j["input_width"] = s.input_width;
   j["input_height"] = s.input_height;
@@ -198,25 +223,26 @@ nlohmann::json spec_to_json(const ModelSpec& s) {
   j["layers"] = nlohmann::json::array();
   for (const auto& l : s.layers) {
     const auto& n = l.neuron;
-    j["layers"].push_back(
-        {{"kind", kind_name(l.kind)},
-         {"in_channels", l.in_channels},
-         {"out_channels", l.out_channels},
-         {"kernel", l.kernel},
-         {"stride", l.stride},
-         {"padding", l.padding},
-         {"output_padding", l.output_padding},
-         {"has_delay", !l.delay.empty()},
-         {"neuron",
-          {{"theta", n.theta},
-           {"tau_s", n.tau_s},
-           {"tau_r", n.tau_r},
-           {"scale_ref", n.scale_ref},
-           {"tau_rho", n.tau_rho},
-           {"scale_rho", n.scale_rho},
-           {"refractory", n.refractory == RefractoryShape::SpikeMS ? "spikems" : "slayer"},
-           {"discretisation", n.discretisation == Discretisation::FIR ? "fir" : "iir"},
-           {"surrogate", n.surrogate == SurrogateForm::SpikeMS ? "spikems" : "slayer"}}}});
+    nlohmann::json lj = {{"kind", kind_name(l.kind)},
+                         {"in_channels", l.in_channels},
+                         {"out_channels", l.out_channels},
+                         {"kernel", l.kernel},
+                         {"stride", l.stride},
+                         {"padding", l.padding},
+                         {"output_padding", l.output_padding},
+                         {"has_delay", !l.delay.empty()}};
+    if (s.type == ModelType::SNN)
+      lj["neuron"] = {
+          {"theta", n.theta},
+          {"tau_s", n.tau_s},
+          {"tau_r", n.tau_r},
+          {"scale_ref", n.scale_ref},
+          {"tau_rho", n.tau_rho},
+          {"scale_rho", n.scale_rho},
+          {"refractory", n.refractory == RefractoryShape::SpikeMS ? "spikems" : "slayer"},
+          {"discretisation", n.discretisation == Discretisation::FIR ? "fir" : "iir"},
+          {"surrogate", n.surrogate == SurrogateForm::SpikeMS ? "spikems" : "slayer"}};
+    j["layers"].push_back(std::move(lj));
   }
   return j;
 }
@@ -225,6 +251,9 @@ ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
   ModelSpec s;
   try {
     s.name = j.value("name", "spikems");
+    s.type =
+        parse_enum<ModelType>(j, "type", {{"snn", ModelType::SNN}, {"ann2d", ModelType::ANN2D}},
+                              ModelType::SNN, src, "model spec");
     s.time_step_ms = j.at("time_step_ms").get<double>();
     s.input_width = j.value("input_width", 0);
     s.input_height = j.value("input_height", 0);
@@ -242,7 +271,11 @@ ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
       l.stride = lj.value("stride", 2);
       l.padding = lj.value("padding", 0);
       l.output_padding = lj.value("output_padding", 0);
-      const auto& nj = lj.at("neuron");
+      // ANN-2D layers have no neuron; they keep the (unused) defaults.
+      const auto& nj =
+          s.type == ModelType::ANN2D && !lj.contains("neuron")
+              ? nlohmann::json::object({{"theta", 0.22}, {"tau_s", 2.0}, {"tau_r", 1.0}})
+              : lj.at("neuron");
       auto& n = l.neuron;
       n.theta = nj.at("theta");
       n.tau_s = nj.at("tau_s");
@@ -311,10 +344,11 @@ ModelSpec load_model(const std::string& path) {
             ? std::vector<int64_t>{l.out_channels, l.in_channels, l.kernel, l.kernel}
             : std::vector<int64_t>{l.in_channels, l.out_channels, l.kernel, l.kernel};
     l.weight = take(p + "weight", wshape, true);
-    bool fir = l.neuron.discretisation == Discretisation::FIR;
+    const bool fir = s.type == ModelType::SNN && l.neuron.discretisation == Discretisation::FIR;
     l.srm_kernel = take(p + "srm_kernel", {}, fir);
     l.ref_kernel = take(p + "ref_kernel", {}, fir);
     l.delay = take(p + "delay", {l.out_channels}, false);
+    l.bias = take(p + "bias", {l.out_channels}, s.type == ModelType::ANN2D);
   }
   s.validate(path);
   return s;
@@ -343,6 +377,8 @@ void save_model(const std::string& path, const ModelSpec& s) {
           StTensor{"F32", {int64_t(l.ref_kernel.size())}, l.ref_kernel, {}};
     if (!l.delay.empty())
       st.tensors[p + "delay"] = StTensor{"F32", {int64_t(l.delay.size())}, l.delay, {}};
+    if (!l.bias.empty())
+      st.tensors[p + "bias"] = StTensor{"F32", {int64_t(l.bias.size())}, l.bias, {}};
   }
   write_safetensors(path, st);
 }

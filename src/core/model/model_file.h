@@ -6,6 +6,9 @@
 //   layers.k.srm_kernel  F32 [K]   sampled spike-response kernel (FIR layers only)
 //   layers.k.ref_kernel  F32 [R]   sampled refractory kernel (FIR layers only)
 //   layers.k.delay       F32 [C_out] axonal delay in time steps (optional)
+//   layers.k.bias        F32 [C_out] (ANN-2D models only)
+// A model is a spiking network ("type": "snn", the default) or the ANN-2D baseline ("ann2d":
+// the same hourglass with ReLU units on event frames, ann_features.h).
 // The full description is docs/model-format.md.
 #pragma once
 
@@ -50,14 +53,18 @@ struct LayerSpec {
   std::vector<float> srm_kernel;  // FIR only
   std::vector<float> ref_kernel;  // FIR only
   std::vector<float> delay;       // optional, per output channel, in steps
+  std::vector<float> bias;        // ANN-2D only, per output channel
   int64_t weight_count() const { return int64_t(in_channels) * out_channels * kernel * kernel; }
   // Spatial output size for an input size (conv: floor((H+2p-k)/s)+1;
   // convT: (H-1)s - 2p + k + output_padding).
   int output_size(int in) const;
 };
 
+enum class ModelType { SNN, ANN2D };
+
 struct ModelSpec {
   std::string name = "spikems";
+  ModelType type = ModelType::SNN;
   double time_step_ms = 1.0;
   // Sensor size the model was trained for (0 = any). The runtime checks it when set.
   int input_width = 0, input_height = 0;
@@ -90,6 +97,10 @@ bool has_sampled_kernels(const LayerSpec& l, double time_step_ms);
 // padded=false: the authors' geometry (padding 0, output one pixel smaller per 8);
 // padded=true: padding 1 and output_padding 1, so a multiple-of-8 input keeps its size.
 ModelSpec spikems_architecture(bool padded, Discretisation d = Discretisation::FIR);
+// The ANN-2D baseline (EVDodgeNet-like): the same six 3x3 stride-2 layers and channel widths,
+// padding 1 (output_padding 1 for the transposed ones), ReLU after each but the last, biases;
+// 4 input channels (ann_features.h) and one output channel, the logit of "moving". Zero weights.
+ModelSpec ann2d_architecture();
 
 ModelSpec load_model(const std::string& path);
 void save_model(const std::string& path, const ModelSpec& spec);  // atomic

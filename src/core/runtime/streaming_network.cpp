@@ -11,6 +11,10 @@ namespace spikems {
 StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width)
     : h_(height), w_(width) {
   m.validate(m.name);
+  if (m.type != ModelType::SNN)
+    fail(m.name, "",
+         "is an ANN-2D baseline model: it works on whole event frames, not event by event; "
+         "score it with `spikems eval`");
   if (m.layers.front().in_channels != 2)
     fail(m.name, "layer 0",
          "takes " + std::to_string(m.layers.front().in_channels) +

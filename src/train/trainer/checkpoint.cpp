@@ -6,10 +6,10 @@
 
 namespace spikems::train {
 
-void save_checkpoint(const std::string& path, SpikeMSNetwork& net, torch::optim::Optimizer& opt,
+void save_checkpoint(const std::string& path, torch::nn::Module& net, torch::optim::Optimizer& opt,
                      const CheckpointState& st) {
   torch::serialize::OutputArchive ar, model, optim;
-  net->save(model);
+  net.save(model);
   opt.save(optim);
   ar.write("model", model);
   ar.write("optimizer", optim);
@@ -28,7 +28,7 @@ void save_checkpoint(const std::string& path, SpikeMSNetwork& net, torch::optim:
   }
 }
 
-CheckpointState load_checkpoint(const std::string& path, SpikeMSNetwork& net,
+CheckpointState load_checkpoint(const std::string& path, torch::nn::Module& net,
                                 torch::optim::Optimizer& opt) {
   CheckpointState st;
   try {
@@ -36,7 +36,7 @@ CheckpointState load_checkpoint(const std::string& path, SpikeMSNetwork& net,
     ar.load_from(path);
     ar.read("model", model);
     ar.read("optimizer", optim);
-    net->load(model);
+    net.load(model);
     opt.load(optim);
     // A fresh tensor per key: read() into a defined tensor keeps that tensor's dtype and
     // reinterprets the bytes (a double read into the int64 "step" tensor came back as bits).

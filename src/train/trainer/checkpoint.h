@@ -9,8 +9,6 @@
 
 #include <string>
 
-#include "train/network/spikems_network.h"
-
 namespace spikems::train {
 
 struct CheckpointState {
@@ -20,10 +18,10 @@ struct CheckpointState {
   double wall_seconds = 0;  // training time spent so far (over every session)
 };
 
-void save_checkpoint(const std::string& path, SpikeMSNetwork& net, torch::optim::Optimizer& opt,
+void save_checkpoint(const std::string& path, torch::nn::Module& net, torch::optim::Optimizer& opt,
                      const CheckpointState& st);
 // Throws Error naming the file when it cannot be read or does not fit the network.
-CheckpointState load_checkpoint(const std::string& path, SpikeMSNetwork& net,
+CheckpointState load_checkpoint(const std::string& path, torch::nn::Module& net,
                                 torch::optim::Optimizer& opt);
 
 }  // namespace spikems::train

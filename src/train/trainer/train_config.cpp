@@ -185,6 +185,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   for (const auto& o : overrides) apply_override(j, o, source);
   TrainConfig c;
   Binder b(j, source);
+  b.bind("model", "type", c.type);
   b.bind("model", "padded", c.padded);
   b.bind("model", "neurons", c.neurons);
   b.bind("model", "surrogate", c.surrogate);
@@ -251,6 +252,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("run", "val_full_window_ms", c.val_full_window_ms);
   b.check_unknown();
 
+  one_of(b, "model", "type", c.type, {"snn", "ann2d"});
   one_of(b, "model", "neurons", c.neurons, {"iir", "fir"});
   one_of(b, "model", "surrogate", c.surrogate, {"spikems", "slayer"});
   one_of(b, "model", "backward", c.backward, {"slayer", "exact"});
@@ -276,6 +278,8 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (s.threshold_jitter < 0) b.bad("sample", "threshold_jitter", "must not be negative");
   if (s.noise_hz_max < 0) b.bad("sample", "noise_hz_max", "must not be negative");
   one_of(b, "loss", "kind", c.loss, {"bce", "spike", "both", "iou"});
+  if (c.type == "ann2d" && (c.loss == "spike" || c.loss == "both"))
+    b.bad("loss", "kind", "the ANN-2D baseline has no output spikes: use \"bce\" or \"iou\"");
   if (c.iou_weight < 0) b.bad("loss", "iou_weight", "must not be negative");
   one_of(b, "loss", "projection", c.projection, {"sigmoid", "exponential"});
   if (c.lambda < 0) b.bad("loss", "lambda", "must not be negative");

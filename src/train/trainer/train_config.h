@@ -14,6 +14,7 @@ namespace spikems::train {
 
 struct TrainConfig {
   // [model]
+  std::string type = "snn";           // snn | ann2d (the ANN-2D baseline: padded, no neurons)
   bool padded = true;                 // padding 1: a multiple-of-8 input keeps its size
   std::string neurons = "iir";        // iir | fir
   std::string surrogate = "spikems";  // spikems | slayer

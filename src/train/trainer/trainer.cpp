@@ -15,7 +15,9 @@
 #include "core/util/interrupt.h"
 #include "core/util/progress.h"
 #include "core/viz/svg_plot.h"
+#include "train/loss/ann_loss.h"
 #include "train/loss/spikems_loss.h"
+#include "train/network/ann2d_network.h"
 #include "train/trainer/batch_tensors.h"
 #include "train/trainer/checkpoint.h"
 #include "train/trainer/weight_init.h"
@@ -28,6 +30,7 @@ namespace {
 
 ModelSpec initial_spec(const TrainConfig& c) {
   ModelSpec spec;
+  if (c.init == "data" && c.type == "ann2d") return ann2d_architecture();
   if (c.init != "data") {
     spec = load_model(c.init);  // fine-tuning: geometry and neurons from the file
   } else {
@@ -111,6 +114,46 @@ StepOutput forward_loss(SpikeMSNetwork& net, const BatchTensors& bt, const Train
   o.fg_window = fg;
   return o;
 }
+
+// The ANN-2D baseline on the event frame of the window (the warm-up is not shown to it).
+// "rates" are the shares of non-zero ReLU outputs (the output layer: of positive logits).
+StepOutput ann_forward_loss(Ann2dNetwork& net, const BatchTensors& bt, const TrainConfig& c,
+                            double ts) {
+  const int64_t w0 = bt.warmup_steps, tw = bt.input.size(0) - w0;
+  const torch::Tensor feat = ann_feature_tensor(bt.input, w0, ts);
+  const std::vector<torch::Tensor> layers = net->forward_all(feat);
+  const torch::Tensor logits = align_to_input(layers.back(), feat.size(2), feat.size(3));
+  const torch::Tensor had = (feat.narrow(1, 0, 2).sum(1) > 0).to(torch::kFloat);
+  StepOutput o;
+  o.fg_window = bt.fg.narrow(0, w0, tw);
+  const torch::Tensor fg = (o.fg_window.sum(0) > 0).to(torch::kFloat);
+  const double iou_w = c.loss == "iou" ? 1.0 : c.iou_weight;
+  const AnnLoss l = ann_loss(logits, had, fg, c.balanced, iou_w);
+  const auto zero = torch::zeros({}, logits.options());
+  o.bce = c.loss == "iou" ? zero : l.bce;
+  o.iou = l.iou;
+  o.spike = o.activity = zero;
+  o.total = o.bce + iou_w * o.iou;
+  for (const auto& a : layers)
+    o.rates.push_back((a.detach() > 0).to(torch::kFloat).mean().item<double>());
+  o.out_window =
+      ((logits.detach().squeeze(1) > 0).to(torch::kFloat) * had).unsqueeze(0).unsqueeze(2);
+  return o;
+}
+
+// The network being trained: the spiking SpikeMS network or the ANN-2D baseline.
+struct TrainNet {
+  SpikeMSNetwork snn{nullptr};
+  Ann2dNetwork ann{nullptr};
+  torch::nn::Module& module() {
+    return snn ? static_cast<torch::nn::Module&>(*snn) : static_cast<torch::nn::Module&>(*ann);
+  }
+  ModelSpec to_spec() const { return snn ? snn->to_spec() : ann->to_spec(); }
+  size_t size() const { return snn ? snn->size() : ann->size(); }
+  StepOutput step(const BatchTensors& bt, const TrainConfig& c, const LossOptions& lo, double ts) {
+    return snn ? forward_loss(snn, bt, c, lo, ts) : ann_forward_loss(ann, bt, c, ts);
+  }
+};
 
 nlohmann::json rates_json(const std::vector<double>& r) {
   nlohmann::json a = nlohmann::json::array();
@@ -236,11 +279,16 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
   ModelSpec spec = initial_spec(c);
   spec.time_step_ms = ts;
   const SpikeGradient grad = c.backward == "exact" ? SpikeGradient::Exact : SpikeGradient::Slayer;
-  SpikeMSNetwork net(spec, grad);
-  if (c.delays)
-    for (size_t k = 0; k < net->size(); ++k) net->layer(k)->enable_delay(true);
+  TrainNet net;
+  if (spec.type == ModelType::ANN2D) {
+    net.ann = Ann2dNetwork(spec);
+  } else {
+    net.snn = SpikeMSNetwork(spec, grad);
+    if (c.delays)
+      for (size_t k = 0; k < net.size(); ++k) net.snn->layer(k)->enable_delay(true);
+  }
   torch::optim::Adam opt(
-      net->parameters(),
+      net.module().parameters(),
       torch::optim::AdamOptions(c.lr).amsgrad(c.amsgrad).weight_decay(c.weight_decay));
   CheckpointState st;
   const std::string log_path = (dir / "log.jsonl").string();
@@ -248,14 +296,14 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
   // The run's config.json always holds the configuration in force (a resume's --set too).
   write_file_atomic((dir / "config.json").string(), c.source.dump(2) + "\n");
   if (ro.resume) {
-    st = load_checkpoint(ckpt_path, net, opt);
+    st = load_checkpoint(ckpt_path, net.module(), opt);
     curves = trim_log(log_path, st.step);
   } else {
     write_file_atomic(log_path, "");
-    if (c.init == "data") {
+    if (c.init == "data" && net.snn) {
       Batch b = BatchLoader::make(train_ptr, weights, c.sample, std::max(4, c.batch), c.seed, -1);
       BatchTensors bt = to_tensors(b.samples, ts, torch::kCPU);
-      auto r = init_weights_from_data(net, bt.input, c.init_rates, ts, c.seed);
+      auto r = init_weights_from_data(net.snn, bt.input, c.init_rates, ts, c.seed);
       if (ro.progress) {
         std::fprintf(stderr, "init: layer firing rates");
         for (double v : r) std::fprintf(stderr, " %.4f", v);
@@ -263,7 +311,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
       }
     }
   }
-  net->to(device);
+  net.module().to(device);
   std::ofstream log(log_path, std::ios::app);
   auto log_line = [&](const nlohmann::json& j) {
     log << j.dump() << "\n";
@@ -284,7 +332,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
   const LossOptions lo = loss_options(c, ts);
 
   auto save_model_file = [&](const std::string& path) {
-    ModelSpec m = net->to_spec();
+    ModelSpec m = net.to_spec();
     m.name = dir.filename().string();
     m.training = {{"config", c.source},
                   {"steps", st.step},
@@ -300,13 +348,13 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
     torch::NoGradGuard ng;
     WindowScores ws;
     double loss = 0;
-    std::vector<double> rates(net->size(), 0.0);
+    std::vector<double> rates(net.size(), 0.0);
     int batches = 0;
     for (size_t i = 0; i < val.size(); i += size_t(c.batch)) {
       std::vector<Sample> part(val.begin() + i,
                                val.begin() + std::min(val.size(), i + size_t(c.batch)));
       BatchTensors bt = to_tensors(part, ts, device);
-      StepOutput o = forward_loss(net, bt, c, lo, ts);
+      StepOutput o = net.step(bt, c, lo, ts);
       for (const auto& m : window_counts(o.out_window, o.fg_window)) ws.add(m);
       loss += o.total.item<double>();
       for (size_t k = 0; k < rates.size(); ++k) rates[k] += o.rates[k];
@@ -357,7 +405,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
     return full_val ? v["full_iou"].get<double>() : v["iou"].get<double>();
   };
   auto checkpoint = [&]() {
-    save_checkpoint(ckpt_path, net, opt, st);
+    save_checkpoint(ckpt_path, net.module(), opt, st);
     save_model_file((dir / "model.safetensors").string());
   };
 
@@ -373,7 +421,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
   double ema_loss = -1, ema_iou = -1;
   WindowScores train_ws;
   double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_soft_iou = 0, sum_act = 0;
-  std::vector<double> sum_rates(net->size(), 0.0);
+  std::vector<double> sum_rates(net.size(), 0.0);
   int in_sum = 0;
   auto seg_start = std::chrono::steady_clock::now();
   const double wall_before = st.wall_seconds;
@@ -385,7 +433,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
     const double lr = lr_at(c, st.step);
     for (auto& g : opt.param_groups()) static_cast<torch::optim::AdamOptions&>(g.options()).lr(lr);
     opt.zero_grad();
-    StepOutput o = forward_loss(net, bt, c, lo, ts);
+    StepOutput o = net.step(bt, c, lo, ts);
     const double loss = o.total.item<double>();
     if (!std::isfinite(loss))
       fail(ro.out_dir, "step " + std::to_string(st.step + 1),
@@ -395,7 +443,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
                ") is kept: lower optim.lr or raise optim.clip, "
                "then --resume");
     o.total.backward();
-    if (c.clip > 0) torch::nn::utils::clip_grad_norm_(net->parameters(), c.clip);
+    if (c.clip > 0) torch::nn::utils::clip_grad_norm_(net.module().parameters(), c.clip);
     opt.step();
     ++st.step;
     WindowScores ws;  // this batch (progress bar); train_ws: since the last log line

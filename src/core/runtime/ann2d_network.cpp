@@ -1,0 +1,116 @@
+#include "core/runtime/ann2d_network.h"
+
+#include <algorithm>
+
+#include "core/runtime/ann_features.h"
+#include "core/util/error.h"
+
+namespace spikems {
+
+namespace {
+
+// in [C_in, H, W] -> out [C_out, Ho, Wo], out = bias + conv(in).
+void conv(const LayerSpec& l, const std::vector<float>& in, int H, int W, std::vector<float>& out,
+          int Ho, int Wo) {
+  const int k = l.kernel, s = l.stride, p = l.padding;
+  const size_t po = size_t(Ho) * size_t(Wo), pi = size_t(H) * size_t(W);
+  out.assign(size_t(l.out_channels) * po, 0.f);
+  for (int co = 0; co < l.out_channels; ++co) {
+    float* o = out.data() + size_t(co) * po;
+    std::fill(o, o + po, l.bias[size_t(co)]);
+    for (int ci = 0; ci < l.in_channels; ++ci) {
+      const float* x = in.data() + size_t(ci) * pi;
+      for (int ky = 0; ky < k; ++ky)
+        for (int kx = 0; kx < k; ++kx) {
+          const float w = l.weight[((size_t(co) * l.in_channels + ci) * k + ky) * k + kx];
+          // Output columns whose input column ox*s - p + kx lies inside [0, W).
+          const int ox0 = std::max(0, (p - kx + s - 1) / s);
+          const int ox1 = std::min(Wo, (W - 1 + p - kx) / s + 1);
+          for (int oy = 0; oy < Ho; ++oy) {
+            const int iy = oy * s - p + ky;
+            if (iy < 0 || iy >= H) continue;
+            const float* xr = x + size_t(iy) * W;
+            float* orow = o + size_t(oy) * Wo;
+            for (int ox = ox0; ox < ox1; ++ox) orow[ox] += w * xr[ox * s - p + kx];
+          }
+        }
+    }
+  }
+}
+
+// Transposed: every input value scatters into a k x k patch at (i*s - p + ky, j*s - p + kx).
+void conv_transpose(const LayerSpec& l, const std::vector<float>& in, int H, int W,
+                    std::vector<float>& out, int Ho, int Wo) {
+  const int k = l.kernel, s = l.stride, p = l.padding;
+  const size_t po = size_t(Ho) * size_t(Wo), pi = size_t(H) * size_t(W);
+  out.assign(size_t(l.out_channels) * po, 0.f);
+  for (int co = 0; co < l.out_channels; ++co) {
+    float* o = out.data() + size_t(co) * po;
+    std::fill(o, o + po, l.bias[size_t(co)]);
+    for (int ci = 0; ci < l.in_channels; ++ci) {
+      const float* x = in.data() + size_t(ci) * pi;
+      for (int ky = 0; ky < k; ++ky)
+        for (int kx = 0; kx < k; ++kx) {
+          const float w = l.weight[((size_t(ci) * l.out_channels + co) * k + ky) * k + kx];
+          for (int iy = 0; iy < H; ++iy) {
+            const int oy = iy * s - p + ky;
+            if (oy < 0 || oy >= Ho) continue;
+            const float* xr = x + size_t(iy) * W;
+            float* orow = o + size_t(oy) * Wo;
+            for (int ix = 0; ix < W; ++ix) {
+              const int ox = ix * s - p + kx;
+              if (ox >= 0 && ox < Wo) orow[ox] += w * xr[ix];
+            }
+          }
+        }
+    }
+  }
+}
+
+}  // namespace
+
+Ann2dForward::Ann2dForward(ModelSpec model) : model_(std::move(model)) {
+  model_.validate(model_.name);
+  if (model_.type != ModelType::ANN2D)
+    fail(model_.name, "", "not an ANN-2D model (its type is the spiking network)");
+}
+
+std::vector<float> Ann2dForward::forward(const std::vector<float>& features, int H, int W) const {
+  if (H < 1 || W < 1 || features.size() != size_t(kAnnFeatureChannels) * H * W)
+    fail(model_.name, "", "ANN-2D input must be 4 x H x W features");
+  std::vector<float> x = features, y;
+  int h = H, w = W;
+  for (size_t k = 0; k < model_.layers.size(); ++k) {
+    const LayerSpec& l = model_.layers[k];
+    const int ho = l.output_size(h), wo = l.output_size(w);
+    if (ho < 1 || wo < 1) fail(model_.name, "", "input too small for the network");
+    if (l.kind == LayerKind::Conv)
+      conv(l, x, h, w, y, ho, wo);
+    else
+      conv_transpose(l, x, h, w, y, ho, wo);
+    if (k + 1 < model_.layers.size())
+      for (float& v : y) v = std::max(v, 0.f);
+    std::swap(x, y);
+    h = ho;
+    w = wo;
+  }
+  std::vector<float> out(size_t(H) * size_t(W), 0.f);  // top-left aligned, channel 0
+  for (int r = 0; r < std::min(H, h); ++r)
+    std::copy_n(x.data() + size_t(r) * w, std::min(W, w), out.data() + size_t(r) * W);
+  return out;
+}
+
+int64_t Ann2dForward::macs(int H, int W) const {
+  int64_t total = 0;
+  int h = H, w = W;
+  for (const auto& l : model_.layers) {
+    const int ho = l.output_size(h), wo = l.output_size(w);
+    const int64_t per = int64_t(l.in_channels) * l.out_channels * l.kernel * l.kernel;
+    total += per * (l.kind == LayerKind::Conv ? int64_t(ho) * wo : int64_t(h) * w);
+    h = ho;
+    w = wo;
+  }
+  return total;
+}
+
+}  // namespace spikems

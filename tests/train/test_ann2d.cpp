@@ -1,0 +1,75 @@
+// The ANN-2D baseline in LibTorch against the core's LibTorch-free version (features and
+// forward pass on random data), and its loss on a hand-made case.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/runtime/ann2d_network.h"
+#include "core/runtime/ann_features.h"
+#include "train/loss/ann_loss.h"
+#include "train/network/ann2d_network.h"
+
+namespace spikems::train {
+namespace {
+
+TEST(Ann2dTorch, FeaturesEqualTheCoreFeatures) {
+  torch::manual_seed(3);
+  const int64_t T = 13, B = 2, H = 5, W = 7, w0 = 3;
+  const double ts = 0.5;  // spikes carry 1/Ts
+  torch::Tensor spikes = (torch::rand({T, B, 2, H, W}) < 0.2).to(torch::kFloat);
+  const torch::Tensor f = ann_feature_tensor(spikes / ts, w0, ts);
+  ASSERT_EQ(f.sizes(), (std::vector<int64_t>{B, 4, H, W}));
+  for (int64_t b = 0; b < B; ++b) {
+    torch::Tensor win = spikes.narrow(0, w0, T - w0).select(1, b).to(torch::kUInt8).contiguous();
+    const auto core = ann_features(win.data_ptr<uint8_t>(), int(T - w0), int(H), int(W));
+    torch::Tensor fb = f[b].contiguous();
+    for (size_t i = 0; i < core.size(); ++i)
+      ASSERT_NEAR(fb.data_ptr<float>()[i], core[i], 1e-6) << "sample " << b << " value " << i;
+  }
+}
+
+TEST(Ann2dTorch, ForwardEqualsTheCoreForward) {
+  torch::manual_seed(5);
+  Ann2dNetwork net(ann2d_architecture());  // PyTorch's default initialisation
+  const ModelSpec spec = net->to_spec();
+  for (const auto& l : spec.layers) ASSERT_EQ(l.bias.size(), size_t(l.out_channels));
+  const Ann2dForward core(spec);
+  // 21 x 30: not a multiple of 8, so the output is cropped / padded to the input.
+  for (auto [H, W] : {std::pair{16, 24}, std::pair{21, 30}}) {
+    torch::Tensor x = torch::rand({1, 4, H, W});
+    torch::NoGradGuard ng;
+    torch::Tensor y = net->forward(x).contiguous();
+    ASSERT_EQ(y.sizes(), (std::vector<int64_t>{1, 1, H, W}));
+    torch::Tensor xc = x.contiguous();
+    const auto ref = core.forward(
+        std::vector<float>(xc.data_ptr<float>(), xc.data_ptr<float>() + xc.numel()), H, W);
+    double err = 0, scale = 0;
+    for (size_t i = 0; i < ref.size(); ++i) {
+      err = std::max(err, double(std::abs(y.data_ptr<float>()[i] - ref[i])));
+      scale = std::max(scale, double(std::abs(ref[i])));
+    }
+    EXPECT_LT(err, 1e-5 * std::max(1.0, scale)) << H << "x" << W;
+    EXPECT_GT(scale, 1e-4);  // not a trivially zero output
+  }
+}
+
+TEST(Ann2dTorch, BalancedLossByHand) {
+  // One sample, 3 event pixels (2 foreground, 1 background) and one pixel without events.
+  torch::Tensor logits = torch::tensor({0.f, 2.f, -1.f, 5.f}).view({1, 1, 1, 4});
+  torch::Tensor had = torch::tensor({1.f, 1.f, 1.f, 0.f}).view({1, 1, 4});
+  torch::Tensor fg = torch::tensor({1.f, 1.f, 0.f, 1.f}).view({1, 1, 4});
+  auto sp = [](double z) { return std::log1p(std::exp(-z)); };  // -log sigmoid(z)
+  const double lf = (sp(0) + sp(2)) / 2, lb = sp(1);            // -log(1 - sigmoid(-1)) = sp(1)
+  AnnLoss l = ann_loss(logits, had, fg, true, 0);
+  EXPECT_NEAR(l.bce.item<double>(), 0.5 * (lf + lb), 1e-6);
+  EXPECT_NEAR(l.iou.item<double>(), 0.0, 0);
+  l = ann_loss(logits, had, fg, false, 1);
+  EXPECT_NEAR(l.bce.item<double>(), (sp(0) + sp(2) + sp(1)) / 3, 1e-6);
+  // Soft IoU: p = sigmoid(z) at event pixels, y = fg at event pixels; union p + y - p y is 1 at
+  // the two foreground pixels, p at the background one, 0 where no event fell.
+  const double p0 = 0.5, p1 = 1 / (1 + std::exp(-2.0)), p2 = 1 / (1 + std::exp(1.0));
+  EXPECT_NEAR(l.iou.item<double>(), 1 - (p0 + p1 + 1) / (2 + p2 + 1), 1e-6);
+}
+
+}  // namespace
+}  // namespace spikems::train
