@@ -112,6 +112,47 @@ TEST(CameraBadInput, CorruptCompressedPacketIsAnError) {
   EXPECT_NE(msg.find("byte " + std::to_string(first_packet)), std::string::npos) << msg;
 }
 
+// AEDAT 4.0 FlatBuffers go through the generated Verifier before any field is read: a bad
+// offset or a vector longer than its buffer is an error naming the file, the byte and why.
+TEST(CameraBadInput, Aedat4FlatBuffersFailingVerificationAreClearErrors) {
+  const std::string path = test::scratch_dir() + "/raw.aedat4";
+  EventStream e;
+  e.sensor = {32, 16};
+  for (int i = 0; i < 5; ++i) e.push_back(1000 + 10 * i, uint16_t(3 * i), uint16_t(i), i % 2);
+  WriteOptions opt;
+  opt.compression = "none";  // packet payloads are the FlatBuffers themselves
+  auto w = open_writer(path, e.sensor, opt, "aedat4");
+  w->write(e);
+  w->close();
+  const std::vector<uint8_t> good = read_file_bytes(path);
+  size_t n = 0;
+  ASSERT_EQ(try_read(good, "aedat4", &n), "");
+  ASSERT_EQ(n, 5u);
+  const size_t packet = 18 + load_le32(good.data() + 14), payload = packet + 8;
+
+  auto b = good;  // IOHeader root offset past its end
+  store_le32(b.data() + 18, 0x00FFFFF0);
+  std::string msg = try_read(b, "aedat4", nullptr);
+  EXPECT_NE(msg.find("IOHeader fails verification"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("byte 18"), std::string::npos) << msg;
+
+  b = good;  // EventPacket root offset past its end
+  store_le32(b.data() + payload + 4, 0x00FFFFF0);
+  msg = try_read(b, "aedat4", nullptr);
+  EXPECT_NE(msg.find("EventPacket fails verification"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("byte " + std::to_string(packet)), std::string::npos) << msg;
+
+  b = good;  // the events vector claims far more elements than the packet holds
+  size_t count_at = 0;
+  for (size_t q = payload; q + 12 <= b.size(); ++q)
+    if (load_le64(b.data() + q + 4) == 1000 && load_le32(b.data() + q) == 5) count_at = q;
+  ASSERT_NE(count_at, 0u);
+  store_le32(b.data() + count_at, 0x01000000);
+  msg = try_read(b, "aedat4", nullptr);
+  EXPECT_NE(msg.find("EventPacket fails verification"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("byte " + std::to_string(packet)), std::string::npos) << msg;
+}
+
 TEST(CameraBadInput, BadHeadersAreClearErrors) {
   auto bytes = [](const std::string& s) { return std::vector<uint8_t>(s.begin(), s.end()); };
   EXPECT_NE(try_read(bytes(std::string("Event Stream\x09\x00\x00\x01", 16) + "abcd"), "es", nullptr)

@@ -196,7 +196,7 @@ TEST(Npz, RoundTripStoredAndDeflate) {
     std::string p = dir + (compress ? "/c.npz" : "/s.npz");
     write_npz(p, arrays, compress);
     auto bytes = read_file_bytes(p);
-    auto entries = zip_list(bytes.data(), bytes.size(), p);
+    auto entries = ZipArchive(bytes.data(), bytes.size(), p).entries();
     ASSERT_EQ(entries.size(), arrays.size());
     for (auto& e : entries) EXPECT_EQ(e.method, compress ? 8 : 0);
     auto back = read_npz(p);
@@ -252,6 +252,77 @@ TEST(Npz, LazyFileSkipsMembersItCannotDecode) {
   EXPECT_NE(e.find("pickled"), std::string::npos) << e;
   EXPECT_THROW(read_npz(dir + "/evimo.npz"), Error);
   EXPECT_NE(error_of([&] { npz.get("nope"); }).find("events, meta"), std::string::npos);
+}
+
+// A file cut anywhere (on disk, read through libzip's file source) is an error naming the
+// file and saying what is wrong, never a crash or a silent partial read.
+TEST(Npz, TruncatedFileOnDiskNamesFileAndReason) {
+  std::string dir = test::scratch_dir();
+  for (bool compress : {false, true}) {
+    write_npz(dir + "/whole.npz", sample_arrays(), compress);
+    auto bytes = read_file_bytes(dir + "/whole.npz");
+    for (size_t cut : {size_t(10), bytes.size() / 2, bytes.size() - 10}) {
+      const std::string p = dir + "/cut.npz";
+      write_file_atomic(p, std::string(bytes.begin(), bytes.begin() + long(cut)));
+      std::string e = error_of([&] { read_npz(p); });
+      EXPECT_NE(e.find(p), std::string::npos) << cut << ": " << e;
+      EXPECT_TRUE(e.find("too short") != std::string::npos ||
+                  e.find("truncated or corrupt") != std::string::npos)
+          << cut << ": " << e;
+    }
+  }
+}
+
+// Members not named *.npy are skipped; a *.npy member that is not an npy array is an error
+// naming "<file>:<key>" and the reason.
+TEST(Npz, MembersThatAreNotNpy) {
+  std::string dir = test::scratch_dir();
+  const std::string text = "hello, not an array";
+  auto good = serialize_npy(NpyArray::from(std::vector<int16_t>{7, -8}, {2}));
+  {
+    AtomicFile f(dir + "/mixed.npz");
+    ZipWriter z(f, true);
+    z.add("README.txt", reinterpret_cast<const uint8_t*>(text.data()), text.size());
+    z.add("t.npy", reinterpret_cast<const uint8_t*>(text.data()), text.size());
+    z.add("x.npy", good.data(), good.size());
+    z.finish();
+    f.commit();
+  }
+  NpzFile npz(dir + "/mixed.npz");
+  EXPECT_EQ(npz.keys(), (std::vector<std::string>{"t", "x"}));
+  EXPECT_EQ(npz.get("x").to<int>(), (std::vector<int>{7, -8}));
+  std::string e = error_of([&] { npz.get("t"); });
+  EXPECT_NE(e.find("mixed.npz:t"), std::string::npos) << e;
+  EXPECT_NE(e.find("magic"), std::string::npos) << e;
+  // Only a text member: a ZIP, but no arrays.
+  {
+    AtomicFile f(dir + "/text.npz");
+    ZipWriter z(f, false);
+    z.add("README.txt", reinterpret_cast<const uint8_t*>(text.data()), text.size());
+    z.finish();
+    f.commit();
+  }
+  EXPECT_TRUE(read_npz(dir + "/text.npz").empty());
+  e = error_of([&] { NpzFile(dir + "/text.npz").get("t"); });
+  EXPECT_NE(e.find("no array 't'"), std::string::npos) << e;
+}
+
+// The writer's output depends only on the arrays (fixed dates), and an empty archive is a
+// valid one (numpy writes a bare end record).
+TEST(Npz, WriterIsReproducibleAndWritesEmptyArchives) {
+  std::string dir = test::scratch_dir();
+  for (bool compress : {false, true}) {
+    write_npz(dir + "/a.npz", sample_arrays(), compress);
+    write_npz(dir + "/b.npz", sample_arrays(), compress);
+    EXPECT_EQ(read_file_bytes(dir + "/a.npz"), read_file_bytes(dir + "/b.npz"));
+  }
+  write_npz(dir + "/empty.npz", {}, false);
+  EXPECT_EQ(std::filesystem::file_size(dir + "/empty.npz"), 22u);
+  EXPECT_TRUE(read_npz(dir + "/empty.npz").empty());
+  // No temporaries left beside the outputs (AtomicFile's nor libzip's).
+  int files = 0;
+  for (auto& e : std::filesystem::directory_iterator(dir)) files += e.is_regular_file();
+  EXPECT_EQ(files, 3);
 }
 
 // A ZIP64 archive as numpy writes for large arrays: 0xFFFFFFFF in the fixed size and offset

@@ -3,6 +3,8 @@
 //   infoNode = XML describing the streams), then packets: int32 stream id, int32 size, payload.
 //   A payload (compressed as a whole with LZ4 frame or zstd, or not at all) is a size-prefixed
 //   EventPacket FlatBuffer: a vector of 16-byte structs {int64 t; int16 x; int16 y; bool on}.
+// The FlatBuffers are read with flatc-generated code (schemas aedat4_*.fbs) after the
+// generated Verifier has checked every offset, size and alignment in them.
 // Only the first event stream is read; packets of other streams (IMU, triggers, frames, a
 // second camera) are skipped.
 #include <lz4frame.h>
@@ -12,10 +14,11 @@
 #include <cstring>
 #include <memory>
 
+#include "aedat4_events_generated.h"
+#include "aedat4_ioheader_generated.h"
 #include "core/events/formats/aedat4_common.h"
 #include "core/events/formats/camera_reader.h"
 #include "core/events/formats/camera_writers.h"
-#include "core/events/formats/flatbuffer.h"
 #include "core/util/error.h"
 
 namespace spikems {
@@ -167,19 +170,27 @@ class Aedat4Reader final : public CameraReader {
       fail_at_byte(in_.name(), 14,
                    "IOHeader size " + std::to_string(hsize) +
                        " is absurd (negative, tiny, over 16 MiB or past the end of the file)");
-    std::vector<uint8_t> hdr(size_t(hsize) + 0);
+    // Kept with its size prefix: FlatBuffers aligns (and verifies alignment) from there.
+    std::vector<uint8_t> hdr(size_t(hsize) + 4);
+    store_le32(hdr.data(), uint32_t(hsize));
     uint64_t hoff = in_.offset();
-    in_.read_exact(hdr.data(), hdr.size(), "the IOHeader");
-    FlatView fv(hdr.data(), hdr.size(), in_.name(), hoff);
-    size_t root = fv.root();
-    compression_ = fv.i32(root, 0, kAedatNone);
+    in_.read_exact(hdr.data() + 4, size_t(hsize), "the IOHeader");
+    flatbuffers::Verifier verifier(hdr.data(), hdr.size());
+    if (!verifier.VerifySizePrefixedBuffer<aedat4::IOHeader>(nullptr))
+      fail_at_byte(in_.name(), hoff,
+                   "corrupt FlatBuffers data: the IOHeader fails verification (an offset, size "
+                   "or alignment points outside its " +
+                       std::to_string(hsize) + " bytes)");
+    const aedat4::IOHeader* h = aedat4::GetSizePrefixedIOHeader(hdr.data());
+    compression_ = int(h->compression());
     if (compression_ < kAedatNone || compression_ > kAedatZstdHigh)
       fail_at_byte(in_.name(), hoff, "unknown compression type " + std::to_string(compression_));
-    int64_t dtp = fv.i64(root, 1, -1);
+    int64_t dtp = h->data_table_position();
     packets_end_ = dtp >= 0 ? uint64_t(dtp) : UINT64_MAX;
+    const std::string_view info = h->info_node() ? h->info_node()->string_view() : "";
     // The first event stream only: a second one (stereo rig) is another camera, whose
     // events would interleave out of time order and in another coordinate frame.
-    for (const auto& s : parse_aedat4_info(fv.string(root, 2))) {
+    for (const auto& s : parse_aedat4_info(info)) {
       if (s.type != "EVTS" || !event_streams_.empty()) continue;
       event_streams_.push_back(s.id);
       sensor_ = s.sensor;
@@ -196,19 +207,19 @@ class Aedat4Reader final : public CameraReader {
     while (o.n < o.cap) {
       if (next_ == count_ && !next_packet()) return;
       size_t k = std::min(count_ - next_, o.cap - o.n);
-      const uint8_t* e = packet_.data() + elems_ + 16 * next_;
-      for (size_t i = 0; i < k; ++i, e += 16) {
-        int16_t x = int16_t(load_le16(e + 8)), y = int16_t(load_le16(e + 10));
+      const aedat4::Event* e = elems_ + next_;
+      for (size_t i = 0; i < k; ++i, ++e) {
+        const int16_t x = e->x(), y = e->y();
         if (x < 0 || y < 0)
           fail_at_byte(in_.name(), packet_offset_,
                        "event " + std::to_string(next_ + i) +
                            " of the packet has a negative "
                            "coordinate (" +
                            std::to_string(x) + ", " + std::to_string(y) + ")");
-        o.t[o.n] = int64_t(load_le64(e));
+        o.t[o.n] = e->timestamp();
         o.x[o.n] = uint16_t(x);
         o.y[o.n] = uint16_t(y);
-        o.p[o.n] = e[12] ? 1 : 0;
+        o.p[o.n] = e->polarity() ? 1 : 0;
         ++o.n;
       }
       next_ += k;
@@ -244,19 +255,26 @@ class Aedat4Reader final : public CameraReader {
       in_.read_exact(comp_.data(), comp_.size(), "a packet");
       aedat4_decompress(compression_, comp_.data(), comp_.size(), packet_, in_.name(),
                         packet_offset_);
-      // Size-prefixed FlatBuffer.
-      std::string where = in_.name() + " (packet at byte " + std::to_string(packet_offset_) +
-                          ", offsets inside the decompressed packet)";
+      // A size-prefixed FlatBuffer; bytes after it are ignored.
       if (packet_.size() < 4) fail_at_byte(in_.name(), packet_offset_, "packet is too small");
       uint32_t fsize = load_le32(packet_.data());
       if (fsize > packet_.size() - 4)
         fail_at_byte(in_.name(), packet_offset_,
                      "packet FlatBuffer size " + std::to_string(fsize) + " exceeds the packet");
-      FlatView fv(packet_.data() + 4, fsize, where, 4);
-      size_t root = fv.root();
-      FlatView::Vector v = fv.vector(root, 0, 16);
-      elems_ = 4 + v.pos;
-      count_ = v.count;
+      flatbuffers::Verifier verifier(packet_.data(), size_t(fsize) + 4);
+      if (!verifier.VerifySizePrefixedBuffer<aedat4::EventPacket>(nullptr))
+        fail_at_byte(in_.name(), packet_offset_,
+                     "corrupt FlatBuffers data: the EventPacket fails verification (an offset, "
+                     "size or alignment points outside its " +
+                         std::to_string(fsize) + " decompressed bytes)");
+      const auto* elements = aedat4::GetSizePrefixedEventPacket(packet_.data())->elements();
+      count_ = elements ? elements->size() : 0;
+      elems_ = count_ ? elements->Get(0) : nullptr;  // structs lie contiguously from here
+      // The verifier checks the vector's length field, not that its 8-byte structs are
+      // 8-aligned; the accessors read them in place, so check (packet_ is malloc-aligned).
+      if (count_ && reinterpret_cast<uintptr_t>(elems_) % alignof(aedat4::Event) != 0)
+        fail_at_byte(in_.name(), packet_offset_,
+                     "corrupt FlatBuffers data: the events vector is not 8-byte aligned");
       next_ = 0;
       if (count_ > 0) return true;
     }
@@ -268,7 +286,8 @@ class Aedat4Reader final : public CameraReader {
   std::vector<int> event_streams_;
   std::vector<uint8_t> comp_, packet_;
   uint64_t packet_offset_ = 0;
-  size_t elems_ = 0, count_ = 0, next_ = 0;
+  const aedat4::Event* elems_ = nullptr;
+  size_t count_ = 0, next_ = 0;
 };
 
 }  // namespace

@@ -2,8 +2,8 @@
 // IOHeader FlatBuffer ("IOHE": compression, dataTablePosition = -1, infoNode XML with the
 // stream's typeIdentifier EVTS and sizeX/sizeY), then packets of up to kPacketEvents events,
 // each a size-prefixed EventPacket FlatBuffer ("EVTS") compressed as one LZ4 frame or zstd
-// frame. No data table is written (dataTablePosition = -1): dv-processing then indexes the
-// file by scanning its packets.
+// frame, both built with flatc-generated code (aedat4_*.fbs). No data table is written
+// (dataTablePosition = -1): dv-processing then indexes the file by scanning its packets.
 #include <lz4frame.h>
 #include <lz4hc.h>
 #include <zstd.h>
@@ -11,9 +11,10 @@
 #include <algorithm>
 #include <cstring>
 
+#include "aedat4_events_generated.h"
+#include "aedat4_ioheader_generated.h"
 #include "core/events/formats/aedat4_common.h"
 #include "core/events/formats/camera_writers.h"
-#include "core/events/formats/flatbuffer.h"
 #include "core/util/atomic_file.h"
 #include "core/util/byte_source.h"
 #include "core/util/error.h"
@@ -73,33 +74,15 @@ std::string info_node(SensorSize s, int compression) {
          "</dv>\n";
 }
 
-// Size-prefixed IOHeader: [size][root][IOHE][vtable 10 B][pad][table: soffset, compression,
-// dataTablePosition, infoNode offset][string]. Positions are relative to the prefix, which
-// is where FlatBuffers measures alignment.
+// Size-prefixed IOHeader ("IOHE"). Every field is written, defaults included, so that a
+// reader that ignores schema defaults still finds compression and dataTablePosition.
 std::vector<uint8_t> build_io_header(int compression, const std::string& info) {
-  FlatBuilder b;
-  b.put_u32(0);                // size prefix, set at the end
-  size_t root = b.put_u32(0);  // root offset (relative to byte 4)
-  b.put_bytes("IOHE", 4);
-  size_t vt = b.put_u16(10);  // vtable size
-  b.put_u16(20);              // table size
-  b.put_u16(4);               // field 0: compression
-  b.put_u16(8);               // field 1: dataTablePosition
-  b.put_u16(16);              // field 2: infoNode
-  b.pad_to(8);
-  size_t table = b.put_u32(0);
-  b.set_u32(table, uint32_t(table - vt));
-  b.put_u32(uint32_t(compression));
-  b.put_u64(uint64_t(int64_t(-1)));
-  size_t str_ref = b.put_u32(0);
-  size_t str = b.put_u32(uint32_t(info.size()));
-  b.set_u32(str_ref, uint32_t(str - str_ref));
-  b.put_bytes(info.data(), info.size());
-  b.buf.push_back(0);  // strings are NUL-terminated
-  b.pad_to(8);
-  b.set_u32(root, uint32_t(table - 4));
-  b.set_u32(0, uint32_t(b.buf.size() - 4));
-  return b.buf;
+  flatbuffers::FlatBufferBuilder b(256 + info.size());
+  b.ForceDefaults(true);
+  auto xml = b.CreateString(info);
+  auto h = aedat4::CreateIOHeader(b, aedat4::CompressionType(compression), -1, xml);
+  aedat4::FinishSizePrefixedIOHeaderBuffer(b, h);
+  return std::vector<uint8_t>(b.GetBufferPointer(), b.GetBufferPointer() + b.GetSize());
 }
 
 class Aedat4Writer final : public EventWriter {
@@ -140,60 +123,35 @@ class Aedat4Writer final : public EventWriter {
                           ") are outside the " + std::to_string(sensor_.width) + "x" +
                           std::to_string(sensor_.height) + " sensor");
       if (s.p[i] > 1) fail_at_event(file_.target(), count_ + i, "polarity is not 0 or 1");
-      if (pending_.empty()) start_packet();
-      uint8_t* e = grow(16);
-      store_le64(e, uint64_t(s.t[i]));
-      store_le16(e + 8, s.x[i]);
-      store_le16(e + 10, s.y[i]);
-      e[12] = s.p[i];
-      e[13] = e[14] = e[15] = 0;
-      if (++in_packet_ == kPacketEvents) finish_packet();
+      pending_.emplace_back(s.t[i], int16_t(s.x[i]), int16_t(s.y[i]), s.p[i] != 0);
+      if (pending_.size() == kPacketEvents) finish_packet();
     }
     count_ += s.size();
   }
 
   void close() override {
-    if (in_packet_ > 0) finish_packet();
+    if (!pending_.empty()) finish_packet();
     file_.commit();
   }
 
  private:
-  uint8_t* grow(size_t n) {
-    size_t p = pending_.size();
-    pending_.resize(p + n);
-    return pending_.data() + p;
-  }
-  // Size-prefixed EventPacket: [size][root][EVTS][vtable 6 B][pad][table: soffset, vector
-  // offset][pad][count][16-byte events, 8-aligned].
-  void start_packet() {
-    pending_.assign(32, 0);
-    in_packet_ = 0;
-  }
+  // One size-prefixed EventPacket ("EVTS"), compressed as one frame, after its 8-byte
+  // packet header (stream id, size).
   void finish_packet() {
-    uint8_t* b = pending_.data();
-    store_le32(b + 0, uint32_t(pending_.size() - 4));
-    store_le32(b + 4, 16);  // root table at 20 = 4 + 16
-    std::memcpy(b + 8, "EVTS", 4);
-    store_le16(b + 12, 6);        // vtable size
-    store_le16(b + 14, 8);        // table size
-    store_le16(b + 16, 4);        // field 0 (elements) at table + 4
-    store_le16(b + 18, 0);        // padding
-    store_le32(b + 20, 8);        // table at 20, vtable at 12
-    store_le32(b + 24, 28 - 24);  // vector at 28
-    store_le32(b + 28, uint32_t(in_packet_));
-    compress();
+    fbb_.Clear();
+    auto events = fbb_.CreateVectorOfStructs(pending_);
+    aedat4::FinishSizePrefixedEventPacketBuffer(fbb_, aedat4::CreateEventPacket(fbb_, events));
+    compress(fbb_.GetBufferPointer(), fbb_.GetSize());
     uint8_t h[8];
     store_le32(h, 0);  // stream id
     store_le32(h + 4, uint32_t(out_.size()));
     file_.write(h, 8);
     file_.write(out_.data(), out_.size());
     pending_.clear();
-    in_packet_ = 0;
   }
-  void compress() {
-    const size_t n = pending_.size();
+  void compress(const uint8_t* src, size_t n) {
     if (compression_ == kAedatNone) {
-      out_ = pending_;
+      out_.assign(src, src + n);
       return;
     }
     if (compression_ == kAedatLz4 || compression_ == kAedatLz4High) {
@@ -201,7 +159,7 @@ class Aedat4Writer final : public EventWriter {
       prefs.compressionLevel =
           compression_ == kAedatLz4High ? (level_ > 0 ? level_ : LZ4HC_CLEVEL_DEFAULT) : 0;
       out_.resize(LZ4F_compressFrameBound(n, &prefs));
-      size_t r = LZ4F_compressFrame(out_.data(), out_.size(), pending_.data(), n, &prefs);
+      size_t r = LZ4F_compressFrame(out_.data(), out_.size(), src, n, &prefs);
       if (LZ4F_isError(r))
         fail(file_.target(), "", std::string("LZ4 compression failed: ") + LZ4F_getErrorName(r));
       out_.resize(r);
@@ -209,7 +167,7 @@ class Aedat4Writer final : public EventWriter {
     }
     int level = level_ > 0 ? level_ : (compression_ == kAedatZstdHigh ? 19 : 3);
     out_.resize(ZSTD_compressBound(n));
-    size_t r = ZSTD_compress(out_.data(), out_.size(), pending_.data(), n, level);
+    size_t r = ZSTD_compress(out_.data(), out_.size(), src, n, level);
     if (ZSTD_isError(r))
       fail(file_.target(), "", std::string("zstd compression failed: ") + ZSTD_getErrorName(r));
     out_.resize(r);
@@ -218,8 +176,9 @@ class Aedat4Writer final : public EventWriter {
   AtomicFile file_;
   SensorSize sensor_;
   int compression_ = kAedatLz4, level_ = -1;
-  std::vector<uint8_t> pending_, out_;
-  size_t in_packet_ = 0;
+  std::vector<aedat4::Event> pending_;
+  flatbuffers::FlatBufferBuilder fbb_{16 * kPacketEvents + 64};
+  std::vector<uint8_t> out_;
   uint64_t count_ = 0;
 };
 

@@ -4,11 +4,6 @@
 #include <cctype>
 #include <cerrno>
 
-#include <fcntl.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include "core/events/formats/zip.h"
 #include "core/util/atomic_file.h"
 #include "core/util/byte_source.h"
@@ -286,7 +281,10 @@ NpyArray read_npy(const std::string& path) {
   return parse_npy(bytes.data(), bytes.size(), path);
 }
 
-std::vector<uint8_t> serialize_npy(const NpyArray& a) {
+namespace {
+// The magic, version, header length and header dict of `a`, padded so that the data that
+// follows starts on a 64-byte boundary.
+std::vector<uint8_t> npy_header(const NpyArray& a) {
   if (a.fortran_order) throw Error("serialize_npy: only C-order arrays are written");
   if (a.itemsize() == 0 || uint64_t(a.numel()) * a.itemsize() != a.data.size())
     throw Error("serialize_npy: " + std::to_string(a.data.size()) +
@@ -301,15 +299,21 @@ std::vector<uint8_t> serialize_npy(const NpyArray& a) {
   size_t total = pre + h.size() + 1;
   h.append((64 - total % 64) % 64, ' ');
   h += '\n';
-  std::vector<uint8_t> out;
-  out.reserve(pre + h.size() + a.data.size());
-  out.insert(out.end(), kMagic, kMagic + 6);
-  out.push_back(pre == 10 ? 1 : 2);
-  out.push_back(0);
-  uint8_t len[4];
-  store_le32(len, uint32_t(h.size()));
-  out.insert(out.end(), len, len + (pre == 10 ? 2 : 4));
-  out.insert(out.end(), h.begin(), h.end());
+  std::vector<uint8_t> out(pre + h.size());
+  std::memcpy(out.data(), kMagic, 6);
+  out[6] = pre == 10 ? 1 : 2;
+  out[7] = 0;
+  if (pre == 10)
+    store_le16(out.data() + 8, uint16_t(h.size()));
+  else
+    store_le32(out.data() + 8, uint32_t(h.size()));
+  std::memcpy(out.data() + pre, h.data(), h.size());
+  return out;
+}
+}  // namespace
+
+std::vector<uint8_t> serialize_npy(const NpyArray& a) {
+  std::vector<uint8_t> out = npy_header(a);
   out.insert(out.end(), a.data.begin(), a.data.end());
   return out;
 }
@@ -321,51 +325,27 @@ void write_npy(const std::string& path, const NpyArray& a) {
   f.commit();
 }
 
-NpzFile::NpzFile(const std::string& path) : source_(path) {
-  int fd = ::open(path.c_str(), O_RDONLY);
-  if (fd < 0) fail(path, "", std::string("cannot open: ") + std::strerror(errno));
-  struct stat st {};
-  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    ::close(fd);
-    fail(path, "", "not a regular file");
-  }
-  size_ = size_t(st.st_size);
-  if (size_ > 0) {
-    map_ = mmap(nullptr, size_, PROT_READ, MAP_PRIVATE, fd, 0);
-    if (map_ == MAP_FAILED) {
-      map_ = nullptr;
-      ::close(fd);
-      fail(path, "", std::string("cannot map the file: ") + std::strerror(errno));
-    }
-    data_ = static_cast<const uint8_t*>(map_);
-  }
-  ::close(fd);
-  try {
-    index();
-  } catch (...) {
-    if (map_) munmap(map_, size_);
-    throw;
-  }
+NpzFile::NpzFile(const std::string& path)
+    : source_(path), zip_(std::make_unique<ZipArchive>(path)) {
+  index();
 }
 
-NpzFile::~NpzFile() {
-  if (map_) munmap(map_, size_);
-}
+NpzFile::~NpzFile() = default;
 
 NpzFile::NpzFile(const uint8_t* data, size_t n, std::string source)
-    : source_(std::move(source)), data_(data), size_(n) {
+    : source_(std::move(source)), zip_(std::make_unique<ZipArchive>(data, n, source_)) {
   index();
 }
 
 void NpzFile::index() {
-  for (auto& e : zip_list(data_, size_, source_)) {
+  for (const auto& e : zip_->entries()) {
     std::string key = e.name;
     if (key.size() > 4 && key.compare(key.size() - 4, 4, ".npy") == 0)
       key.resize(key.size() - 4);
     else
       continue;  // not an array (numpy's savez writes only .npy members)
     keys_.push_back(key);
-    entries_.emplace(key, std::move(e));
+    entries_.emplace(key, e);
   }
 }
 
@@ -380,11 +360,7 @@ NpyArray NpzFile::get(const std::string& key) const {
     for (const auto& k : keys_) known += (known.empty() ? "" : ", ") + k;
     fail(source_, "", "npz archive has no array '" + key + "' (it has: " + known + ")");
   }
-  if (it->second.method == 0) {  // stored: parse straight from the archive, one copy
-    auto [p, n] = zip_stored_view(data_, size_, it->second, source_);
-    return parse_npy_impl(p, n, source_ + ":" + key, nullptr);
-  }
-  auto raw = zip_extract(data_, size_, it->second, source_);
+  auto raw = zip_->read(it->second);
   return parse_npy_impl(raw.data(), raw.size(), source_ + ":" + key, &raw);
 }
 
@@ -405,11 +381,15 @@ std::map<std::string, NpyArray> read_npz(const std::string& path) {
 
 void write_npz(const std::string& path, const std::map<std::string, NpyArray>& arrays,
                bool compress) {
+  // Each member is its npy header followed by the array's own bytes: nothing is copied
+  // before libzip reads it.
+  std::vector<std::vector<uint8_t>> headers;
+  headers.reserve(arrays.size());
   AtomicFile f(path);
   ZipWriter zip(f, compress);
   for (const auto& [key, a] : arrays) {
-    auto bytes = serialize_npy(a);
-    zip.add(key + ".npy", bytes.data(), bytes.size());
+    headers.push_back(npy_header(a));
+    zip.add(key + ".npy", {headers.back(), a.data});
   }
   zip.finish();
   f.commit();

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstring>
 #include <map>
+#include <memory>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -48,8 +49,9 @@ void write_npy(const std::string& path, const NpyArray& a);  // atomic
 std::map<std::string, NpyArray> read_npz(const std::string& path);
 std::map<std::string, NpyArray> parse_npz(const uint8_t* data, size_t n, const std::string& source);
 // An npz archive opened once, arrays decoded on demand: lets a reader skip members it cannot
-// or need not decode (e.g. EV-IMO's pickled `meta`). A file is memory-mapped (read-only);
-// the memory constructor does not copy: the caller keeps `data` alive.
+// or need not decode (e.g. EV-IMO's pickled `meta`). A file is read member by member (libzip
+// reads its central directory, then only the members asked for); the memory constructor does
+// not copy: the caller keeps `data` alive.
 class NpzFile {
  public:
   explicit NpzFile(const std::string& path);
@@ -65,9 +67,7 @@ class NpzFile {
  private:
   void index();
   std::string source_;
-  const uint8_t* data_ = nullptr;
-  size_t size_ = 0;
-  void* map_ = nullptr;  // mmap of the file, or null
+  std::unique_ptr<ZipArchive> zip_;
   std::vector<std::string> keys_;
   std::map<std::string, ZipEntry> entries_;
 };

@@ -972,28 +972,6 @@ class Unpickler {
   std::vector<int> height_;  // levels of containers, counting the node itself
 };
 
-// One member of a ZIP file, reading only its local header and data (EV-IMO npz files hold
-// gigabytes of depth and masks beside a small meta).
-std::vector<uint8_t> read_zip_member(const std::string& path, const ZipEntry& e) {
-  auto src = open_file_source(path);
-  const std::string where =
-      path + " (member '" + e.name + "' at byte " + std::to_string(e.local_header_offset) + ")";
-  if (e.local_header_offset > src->size() || src->size() - e.local_header_offset < 30)
-    fail(where, "", "ZIP member starts past the end of the file");
-  uint8_t lh[30];
-  src->seek(e.local_header_offset);
-  src->read_exact(lh, sizeof lh, "ZIP local header");
-  const uint64_t len = 30 + uint64_t(load_le16(lh + 26)) + load_le16(lh + 28) + e.compressed_size;
-  if (len > src->size() - e.local_header_offset)
-    fail(where, "", "ZIP member runs past the end of the file");
-  std::vector<uint8_t> buf(static_cast<size_t>(len));
-  src->seek(e.local_header_offset);
-  src->read_exact(buf.data(), buf.size(), "ZIP member");
-  ZipEntry local = e;
-  local.local_header_offset = 0;
-  return zip_extract(buf.data(), buf.size(), local, where);
-}
-
 // Where the pickle starts in an npy member of dtype '|O' (0 for a bare pickle).
 size_t npy_object_payload(const std::vector<uint8_t>& b, const std::string& src) {
   static constexpr uint8_t kMagic[] = {0x93, 'N', 'U', 'M', 'P', 'Y'};
@@ -1022,14 +1000,15 @@ nlohmann::json unpickle(const uint8_t* data, size_t n, const std::string& source
 
 nlohmann::json unpickle_npz_member(const std::string& npz_path, const std::string& key) {
   const std::string member = key + ".npy";
-  for (const auto& e : zip_list_file(npz_path)) {
-    if (e.name != member) continue;
-    const auto bytes = read_zip_member(npz_path, e);
-    const std::string src = npz_path + ":" + key;
-    const size_t start = npy_object_payload(bytes, src);
-    return unpickle(bytes.data() + start, bytes.size() - start, src, start);
-  }
-  fail(npz_path, "", "npz archive has no member '" + member + "'");
+  // libzip reads the central directory and this member only (EV-IMO npz files hold
+  // gigabytes of depth and masks beside a small meta).
+  ZipArchive zip(npz_path);
+  const ZipEntry* e = zip.find(member);
+  if (!e) fail(npz_path, "", "npz archive has no member '" + member + "'");
+  const auto bytes = zip.read(*e);
+  const std::string src = npz_path + ":" + key;
+  const size_t start = npy_object_payload(bytes, src);
+  return unpickle(bytes.data() + start, bytes.size() - start, src, start);
 }
 
 }  // namespace spikems

@@ -1,8 +1,13 @@
 #include "core/events/formats/zip.h"
 
-#include <zlib.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <zip.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdio>
 #include <cstring>
 
 #include "core/util/atomic_file.h"
@@ -12,371 +17,231 @@
 namespace spikems {
 namespace {
 
-constexpr uint32_t kLocalSig = 0x04034b50;
-constexpr uint32_t kCentralSig = 0x02014b50;
-constexpr uint32_t kEocdSig = 0x06054b50;
-constexpr uint32_t kEocd64Sig = 0x06064b50;
-constexpr uint32_t kEocd64LocatorSig = 0x07064b50;
-constexpr uint32_t k32 = 0xFFFFFFFFu;
-
 // Deflate cannot expand more than about 1032:1; a larger declared size is a corrupt header.
 constexpr uint64_t kMaxDeflateRatio = 1040;
+constexpr size_t kEocdSize = 22;
 
-uint32_t crc32_of(const uint8_t* p, size_t n) {
-  uLong c = crc32(0L, Z_NULL, 0);
-  while (n > 0) {
-    uInt chunk = uInt(std::min<size_t>(n, 1u << 30));
-    c = crc32(c, p, chunk);
-    p += chunk;
-    n -= chunk;
-  }
-  return uint32_t(c);
+std::string zip_error_text(zip_error_t* ze) {
+  std::string s = zip_error_strerror(ze);
+  zip_error_fini(ze);
+  return s;
 }
 
-// Bounds-checked view of the archive bytes.
-struct View {
-  const uint8_t* d;
-  size_t n;
-  const std::string& src;
-  void need(uint64_t off, uint64_t len, const char* what) const {
-    if (off > n || len > n - off)
-      fail_at_byte(src, off,
-                   std::string("ZIP archive is truncated or corrupt: ") + what + " (" +
-                       std::to_string(len) + " bytes) runs past the end of the " +
-                       std::to_string(n) + "-byte file");
-  }
-};
-
-// Replaces 0xFFFFFFFF fields of a central-directory entry from its ZIP64 extra field.
-void apply_zip64_extra(const View& v, uint64_t extra_off, uint16_t extra_len, ZipEntry& e,
-                       bool usize32, bool csize32, bool off32) {
-  uint64_t p = extra_off, end = extra_off + extra_len;
-  while (p + 4 <= end) {
-    uint16_t id = load_le16(v.d + p), len = load_le16(v.d + p + 2);
-    if (p + 4 + len > end) fail_at_byte(v.src, p, "ZIP extra field runs past its entry");
-    if (id == 0x0001) {
-      uint64_t q = p + 4, qend = q + len;
-      auto take = [&](uint64_t& field) {
-        if (q + 8 > qend) fail_at_byte(v.src, q, "ZIP64 extra field is too short");
-        field = load_le64(v.d + q);
-        q += 8;
-      };
-      if (usize32) take(e.uncompressed_size);
-      if (csize32) take(e.compressed_size);
-      if (off32) take(e.local_header_offset);
-      return;
-    }
-    p += 4 + len;
-  }
-  if (usize32 || csize32 || off32)
-    fail_at_byte(v.src, extra_off,
-                 "ZIP entry '" + e.name + "' needs a ZIP64 extra field, found none");
+std::string zip_error_text(int code) {
+  zip_error_t ze;
+  zip_error_init_with_code(&ze, code);
+  return zip_error_text(&ze);
 }
 
-}  // namespace
-
-namespace {
-
-struct Directory {
-  uint64_t count = 0, offset = 0, size = 0;
-};
-
-// Finds the central directory from the archive's last bytes. `tail` holds the file's last
-// tail_n bytes; `file_n` is the whole file size.
-Directory find_directory(const uint8_t* tail, size_t tail_n, uint64_t file_n,
-                         const std::string& source) {
-  const uint64_t base = file_n - tail_n;  // file offset of tail[0]
-  if (file_n < 22)
-    fail_at_byte(source, 0,
-                 "not a ZIP archive: file is " + std::to_string(file_n) + " bytes, too short");
-  uint64_t eocd = UINT64_MAX;
-  for (uint64_t p = tail_n - 22;; --p) {
-    if (load_le32(tail + p) == kEocdSig && p + 22 + load_le16(tail + p + 20) == tail_n) {
-      eocd = p;
-      break;
-    }
-    if (p == 0) break;
-  }
-  if (eocd == UINT64_MAX)
-    fail_at_byte(source, file_n, "ZIP end-of-central-directory record not found (file truncated?)");
-  Directory d;
-  d.count = load_le16(tail + eocd + 10);
-  d.size = load_le32(tail + eocd + 12);
-  d.offset = load_le32(tail + eocd + 16);
-  if (d.count == 0xFFFF || d.size == k32 || d.offset == k32) {
-    if (eocd < 20 || load_le32(tail + eocd - 20) != kEocd64LocatorSig)
-      fail_at_byte(source, base + eocd,
-                   "ZIP64 archive without a ZIP64 end-of-central-directory locator");
-    uint64_t z64 = load_le64(tail + eocd - 20 + 8);
-    if (z64 < base || z64 > base + tail_n - 56)
-      fail_at_byte(source, base + eocd, "ZIP64 end-of-central-directory record is out of place");
-    const uint8_t* r = tail + (z64 - base);
-    if (load_le32(r) != kEocd64Sig)
-      fail_at_byte(source, z64, "bad ZIP64 end-of-central-directory signature");
-    d.count = load_le64(r + 32);
-    d.size = load_le64(r + 40);
-    d.offset = load_le64(r + 48);
-  }
-  if (d.offset > file_n || d.size > file_n - d.offset)
-    fail_at_byte(source, base + eocd,
-                 "ZIP central directory (" + std::to_string(d.size) + " bytes at " +
-                     std::to_string(d.offset) + ") runs past the end of the " +
-                     std::to_string(file_n) + "-byte file (truncated?)");
-  if (d.count > d.size / 46)
-    fail_at_byte(source, base + eocd,
-                 "ZIP claims " + std::to_string(d.count) +
-                     " entries, more than its central directory can hold");
-  return d;
-}
-
-// Parses `count` entries from the central directory bytes cd (file offset cd_off).
-std::vector<ZipEntry> parse_directory(const uint8_t* cd, uint64_t cd_size, uint64_t cd_off,
-                                      uint64_t count, const std::string& source) {
-  View v{cd, size_t(cd_size), source};
-  std::vector<ZipEntry> out;
-  out.reserve(count);
-  uint64_t p = 0;
-  for (uint64_t i = 0; i < count; ++i) {
-    if (p + 46 > cd_size || load_le32(cd + p) != kCentralSig)
-      fail_at_byte(source, cd_off + p, "bad ZIP central directory entry " + std::to_string(i));
-    ZipEntry e;
-    e.flags = load_le16(cd + p + 8);
-    e.method = load_le16(cd + p + 10);
-    e.crc32 = load_le32(cd + p + 16);
-    e.compressed_size = load_le32(cd + p + 20);
-    e.uncompressed_size = load_le32(cd + p + 24);
-    uint16_t name_len = load_le16(cd + p + 28), extra_len = load_le16(cd + p + 30),
-             comment_len = load_le16(cd + p + 32);
-    e.local_header_offset = load_le32(cd + p + 42);
-    if (p + 46 + name_len + extra_len + comment_len > cd_size)
-      fail_at_byte(source, cd_off + p, "ZIP central directory entry runs past the directory");
-    e.name.assign(reinterpret_cast<const char*>(cd + p + 46), name_len);
-    bool u32 = e.uncompressed_size == k32, c32 = e.compressed_size == k32,
-         o32 = e.local_header_offset == k32;
-    apply_zip64_extra(v, p + 46 + name_len, extra_len, e, u32, c32, o32);
-    out.push_back(std::move(e));
-    p += 46 + name_len + extra_len + comment_len;
-  }
-  return out;
-}
-
-}  // namespace
-
-std::vector<ZipEntry> zip_list(const uint8_t* data, size_t n, const std::string& source) {
-  if (n < 22)
+// The magic bytes of a local header ("PK\3\4") or of an empty archive's end record ("PK\5\6").
+void check_magic(const uint8_t* head, uint64_t n, const std::string& source) {
+  if (n < kEocdSize)
     fail_at_byte(source, 0,
                  "not a ZIP archive: file is " + std::to_string(n) + " bytes, too short");
-  if (load_le32(data) != kLocalSig && load_le32(data) != kEocdSig)
+  const uint32_t m = load_le32(head);
+  if (m != 0x04034b50 && m != 0x06054b50)
     fail_at_byte(source, 0, "not a ZIP archive (npz): wrong magic bytes");
-  size_t tail_n = std::min<size_t>(n, 22 + 65535 + 20 + 56);
-  Directory d = find_directory(data + n - tail_n, tail_n, n, source);
-  return parse_directory(data + d.offset, d.size, d.offset, d.count, source);
+}
+
+[[noreturn]] void fail_open(const std::string& source, const std::string& why) {
+  fail(source, "", "ZIP archive is truncated or corrupt: " + why);
+}
+
+}  // namespace
+
+ZipArchive::ZipArchive(const std::string& path) : source_(path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0)
+    fail(path, "", std::string("cannot open: ") + strerror(errno));
+  if (!S_ISREG(st.st_mode)) fail(path, "", "not a regular file");
+  size_ = uint64_t(st.st_size);
+  uint8_t head[4] = {};
+  if (size_ >= kEocdSize) {
+    auto src = open_file_source(path);
+    src->read_exact(head, 4, "ZIP signature");
+  }
+  check_magic(head, size_, path);
+  int err = 0;
+  za_ = zip_open(path.c_str(), ZIP_RDONLY, &err);
+  if (!za_) fail_open(path, zip_error_text(err));
+  index();
+}
+
+ZipArchive::ZipArchive(const uint8_t* data, size_t n, std::string source)
+    : source_(std::move(source)), size_(n) {
+  check_magic(data, n, source_);
+  zip_error_t ze;
+  zip_error_init(&ze);
+  zip_source_t* src = zip_source_buffer_create(data, n, 0, &ze);
+  if (!src) fail(source_, "", "libzip: " + zip_error_text(&ze));
+  za_ = zip_open_from_source(src, ZIP_RDONLY, &ze);
+  if (!za_) {
+    zip_source_free(src);
+    fail_open(source_, zip_error_text(&ze));
+  }
+  zip_error_fini(&ze);
+  index();
+}
+
+ZipArchive::~ZipArchive() {
+  if (za_) zip_discard(za_);  // read-only: nothing to write
+}
+
+void ZipArchive::index() {
+  try {
+    const zip_int64_t n = zip_get_num_entries(za_, 0);
+    if (n < 0) fail_open(source_, zip_strerror(za_));
+    entries_.reserve(size_t(n));
+    for (zip_int64_t i = 0; i < n; ++i) {
+      zip_stat_t st;
+      zip_stat_init(&st);
+      if (zip_stat_index(za_, zip_uint64_t(i), ZIP_FL_ENC_RAW, &st) != 0)
+        fail_open(source_, "entry " + std::to_string(i) + ": " + zip_strerror(za_));
+      const zip_uint64_t need =
+          ZIP_STAT_NAME | ZIP_STAT_SIZE | ZIP_STAT_COMP_SIZE | ZIP_STAT_COMP_METHOD | ZIP_STAT_CRC;
+      if ((st.valid & need) != need)
+        fail_open(source_, "entry " + std::to_string(i) + " lacks its name, sizes or CRC");
+      ZipEntry e;
+      e.name = st.name;
+      e.index = zip_uint64_t(i);
+      e.method = uint16_t(st.comp_method);
+      e.crc32 = st.crc;
+      e.compressed_size = st.comp_size;
+      e.uncompressed_size = st.size;
+      if ((st.valid & ZIP_STAT_ENCRYPTION_METHOD) && st.encryption_method != ZIP_EM_NONE)
+        fail(source_, "", "ZIP member '" + e.name + "' is encrypted");
+      entries_.push_back(std::move(e));
+    }
+  } catch (...) {
+    zip_discard(za_);
+    za_ = nullptr;
+    throw;
+  }
+}
+
+const ZipEntry* ZipArchive::find(const std::string& name) const {
+  for (const auto& e : entries_)
+    if (e.name == name) return &e;
+  return nullptr;
+}
+
+std::vector<uint8_t> ZipArchive::read(const ZipEntry& e) const {
+  const std::string who = "ZIP member '" + e.name + "'";
+  // Sizes are checked before allocating: libzip would notice a lie only while reading.
+  if (e.method != ZIP_CM_STORE && e.method != ZIP_CM_DEFLATE)
+    fail(source_, "",
+         who + " uses compression method " + std::to_string(e.method) +
+             "; only stored (0) and deflate (8) are supported");
+  if (e.compressed_size > size_)
+    fail(source_, "",
+         who + " claims " + std::to_string(e.compressed_size) +
+             " compressed bytes, more than the " + std::to_string(size_) +
+             "-byte archive (truncated or corrupt)");
+  if (e.method == ZIP_CM_STORE && e.compressed_size != e.uncompressed_size)
+    fail(source_, "", who + " is stored but its two sizes differ");
+  if (e.method == ZIP_CM_DEFLATE &&
+      e.uncompressed_size > e.compressed_size * kMaxDeflateRatio + 1024)
+    fail(source_, "",
+         who + " declares " + std::to_string(e.uncompressed_size) + " bytes, impossible for " +
+             std::to_string(e.compressed_size) + " deflated bytes (corrupt header)");
+
+  std::lock_guard<std::mutex> lock(mu_);
+  zip_file_t* f = zip_fopen_index(za_, e.index, 0);
+  if (!f) fail(source_, "", who + " cannot be opened: " + zip_strerror(za_));
+  std::vector<uint8_t> out(size_t(e.uncompressed_size));
+  uint64_t got = 0;
+  std::string why;
+  while (got < out.size()) {
+    zip_int64_t r = zip_fread(f, out.data() + got, out.size() - got);
+    if (r < 0) {
+      why = zip_file_strerror(f);
+      break;
+    }
+    if (r == 0) {
+      why = "its data ends after " + std::to_string(got) + " of " + std::to_string(out.size()) +
+            " bytes";
+      break;
+    }
+    got += uint64_t(r);
+  }
+  // One more read reaches the end of the member, where libzip checks its CRC-32 and size.
+  if (why.empty()) {
+    uint8_t extra;
+    zip_int64_t r = zip_fread(f, &extra, 1);
+    if (r < 0)
+      why = zip_file_strerror(f);
+    else if (r > 0)
+      why = "it holds more than the " + std::to_string(out.size()) + " bytes its header declares";
+  }
+  zip_fclose(f);
+  if (!why.empty()) fail(source_, "", who + " is truncated or corrupt: " + why);
+  return out;
 }
 
 std::vector<ZipEntry> zip_list_file(const std::string& path) {
-  auto src = open_file_source(path);
-  const uint64_t n = src->size();
-  if (n == UINT64_MAX) fail(path, "", "cannot determine file size");
-  if (n < 22)
-    fail_at_byte(path, 0, "not a ZIP archive: file is " + std::to_string(n) + " bytes, too short");
-  uint8_t magic[4];
-  src->read_exact(magic, 4, "ZIP signature");
-  if (load_le32(magic) != kLocalSig && load_le32(magic) != kEocdSig)
-    fail_at_byte(path, 0, "not a ZIP archive (npz): wrong magic bytes");
-  size_t tail_n = size_t(std::min<uint64_t>(n, 22 + 65535 + 20 + 56));
-  std::vector<uint8_t> tail(tail_n);
-  src->seek(n - tail_n);
-  src->read_exact(tail.data(), tail_n, "ZIP end records");
-  Directory d = find_directory(tail.data(), tail_n, n, path);
-  std::vector<uint8_t> cd(d.size);
-  src->seek(d.offset);
-  src->read_exact(cd.data(), cd.size(), "ZIP central directory");
-  return parse_directory(cd.data(), d.size, d.offset, d.count, path);
-}
-
-namespace {
-
-// Checks a member's local header and returns the offset of its data, which lies inside the file.
-uint64_t member_data_start(const uint8_t* data, size_t n, const ZipEntry& e,
-                           const std::string& source, const std::string& who) {
-  View v{data, n, source};
-  v.need(e.local_header_offset, 30, "local header");
-  const uint8_t* lh = data + e.local_header_offset;
-  if (load_le32(lh) != kLocalSig)
-    fail_at_byte(source, e.local_header_offset, "bad local header signature for " + who);
-  if (e.flags & 1) fail_at_byte(source, e.local_header_offset, who + " is encrypted");
-  // Sizes come from the central directory: numpy's ZIP64 local headers hold placeholders.
-  uint64_t start = e.local_header_offset + 30 + load_le16(lh + 26) + load_le16(lh + 28);
-  v.need(start, e.compressed_size, (who + " data").c_str());
-  return start;
-}
-
-}  // namespace
-
-std::vector<uint8_t> zip_extract(const uint8_t* data, size_t n, const ZipEntry& e,
-                                 const std::string& source) {
-  const std::string who = "ZIP member '" + e.name + "'";
-  const uint64_t start = member_data_start(data, n, e, source, who);
-  const uint8_t* src = data + start;
-  std::vector<uint8_t> out;
-  if (e.method == 0) {
-    if (e.compressed_size != e.uncompressed_size)
-      fail_at_byte(source, start, who + " is stored but its two sizes differ");
-    out.assign(src, src + e.compressed_size);
-  } else if (e.method == 8) {
-    if (e.uncompressed_size > e.compressed_size * kMaxDeflateRatio + 1024)
-      fail_at_byte(source, start,
-                   who + " declares " + std::to_string(e.uncompressed_size) +
-                       " bytes, impossible for " + std::to_string(e.compressed_size) +
-                       " deflated bytes (corrupt header)");
-    out.resize(e.uncompressed_size);
-    z_stream zs{};
-    if (inflateInit2(&zs, -15) != Z_OK) fail(source, "", "zlib inflateInit2 failed");
-    uint64_t in_left = e.compressed_size, out_left = out.size();
-    uint8_t dummy = 0;  // zlib rejects a null output pointer, even for empty members
-    zs.next_in = const_cast<Bytef*>(src);
-    zs.next_out = out.empty() ? &dummy : out.data();
-    int rc = Z_OK;
-    while (rc == Z_OK) {
-      if (zs.avail_in == 0 && in_left) {
-        zs.avail_in = uInt(std::min<uint64_t>(in_left, 1u << 30));
-        in_left -= zs.avail_in;
-      }
-      if (zs.avail_out == 0 && out_left) {
-        zs.avail_out = uInt(std::min<uint64_t>(out_left, 1u << 30));
-        out_left -= zs.avail_out;
-      }
-      rc = inflate(&zs, Z_NO_FLUSH);
-      if (rc == Z_BUF_ERROR && (zs.avail_in == 0 && in_left == 0)) break;  // input ended early
-      if (rc == Z_BUF_ERROR && zs.avail_out == 0 && out_left == 0) break;  // more than declared
-      if (rc == Z_BUF_ERROR) rc = Z_OK;
-    }
-    uint64_t produced = zs.total_out;
-    inflateEnd(&zs);
-    if (rc != Z_STREAM_END)
-      fail_at_byte(source, start,
-                   who + " has corrupt or truncated deflate data" +
-                       (zs.msg ? std::string(" (") + zs.msg + ")" : std::string()));
-    if (produced != e.uncompressed_size)
-      fail_at_byte(source, start,
-                   who + " inflates to " + std::to_string(produced) + " bytes, header says " +
-                       std::to_string(e.uncompressed_size));
-  } else {
-    fail_at_byte(source, e.local_header_offset,
-                 who + " uses compression method " + std::to_string(e.method) +
-                     "; only stored (0) and deflate (8) are supported");
-  }
-  if (crc32_of(out.data(), out.size()) != e.crc32)
-    fail_at_byte(source, start, who + " fails its CRC-32 check (corrupt data)");
-  return out;
-}
-
-std::pair<const uint8_t*, size_t> zip_stored_view(const uint8_t* data, size_t n, const ZipEntry& e,
-                                                  const std::string& source) {
-  const std::string who = "ZIP member '" + e.name + "'";
-  if (e.method != 0)
-    fail_at_byte(source, e.local_header_offset, who + " is not a plain stored member");
-  if (e.compressed_size != e.uncompressed_size)
-    fail_at_byte(source, e.local_header_offset, who + " is stored but its two sizes differ");
-  const uint64_t start = member_data_start(data, n, e, source, who);
-  if (crc32_of(data + start, e.compressed_size) != e.crc32)
-    fail_at_byte(source, start, who + " fails its CRC-32 check (corrupt data)");
-  return {data + start, size_t(e.compressed_size)};
+  return ZipArchive(path).entries();
 }
 
 ZipWriter::ZipWriter(AtomicFile& out, bool deflate, int level)
-    : out_(out), deflate_(deflate), level_(level < 0 ? 6 : std::min(level, 9)) {}
+    : out_(out), deflate_(deflate), level_(level < 1 ? 6 : std::min(level, 9)) {
+  // libzip writes the archive beside temp_path() and renames it onto temp_path() in
+  // zip_close(); AtomicFile then renames that onto the target on commit().
+  int err = 0;
+  za_ = zip_open(out_.temp_path().c_str(), ZIP_CREATE | ZIP_TRUNCATE, &err);
+  if (!za_) fail(out_.target(), "", "cannot create the ZIP archive: " + zip_error_text(err));
+}
 
-void ZipWriter::add(const std::string& name, const uint8_t* data, size_t n) {
+ZipWriter::~ZipWriter() {
+  if (za_) zip_discard(za_);  // finish() not reached: write nothing
+}
+
+void ZipWriter::add(const std::string& name, const std::vector<std::span<const uint8_t>>& pieces) {
   if (finished_) throw Error("ZipWriter::add after finish");
-  if (name.size() > 0xFFFF) fail(out_.target(), "", "ZIP member name too long");
-  ZipEntry e;
-  e.name = name;
-  e.crc32 = crc32_of(data, n);
-  e.uncompressed_size = n;
-  e.local_header_offset = offset_;
-  std::vector<uint8_t> packed;
-  const uint8_t* payload = data;
-  if (deflate_) {
-    e.method = 8;
-    z_stream zs{};
-    if (deflateInit2(&zs, level_, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK)
-      fail(out_.target(), "", "zlib deflateInit2 failed");
-    packed.resize(n + n / 1000 + 1024);  // >= deflateBound for raw deflate
-    zs.next_in = const_cast<Bytef*>(data);
-    zs.next_out = packed.data();
-    uint64_t in_left = n, out_left = packed.size();
-    int rc = Z_OK;
-    while (rc != Z_STREAM_END) {
-      if (zs.avail_in == 0 && in_left) {
-        zs.avail_in = uInt(std::min<uint64_t>(in_left, 1u << 30));
-        in_left -= zs.avail_in;
-      }
-      if (zs.avail_out == 0 && out_left) {
-        zs.avail_out = uInt(std::min<uint64_t>(out_left, 1u << 30));
-        out_left -= zs.avail_out;
-      }
-      rc = deflate(&zs, in_left == 0 ? Z_FINISH : Z_NO_FLUSH);
-      if (rc != Z_OK && rc != Z_STREAM_END && rc != Z_BUF_ERROR) break;
-      if (rc == Z_BUF_ERROR && zs.avail_out == 0 && out_left == 0) break;
-    }
-    e.compressed_size = zs.total_out;
-    deflateEnd(&zs);
-    if (rc != Z_STREAM_END) fail(out_.target(), "", "deflate failed for ZIP member '" + name + "'");
-    payload = packed.data();
-  } else {
-    e.compressed_size = n;
+  std::vector<zip_buffer_fragment_t> frags;
+  for (const auto& p : pieces)
+    if (!p.empty()) frags.push_back({const_cast<zip_uint8_t*>(p.data()), p.size()});
+  zip_error_t ze;
+  zip_error_init(&ze);
+  zip_source_t* src = zip_source_buffer_fragment_create(frags.empty() ? nullptr : frags.data(),
+                                                        frags.size(), 0, &ze);
+  if (!src) fail(out_.target(), "", "ZIP member '" + name + "': " + zip_error_text(&ze));
+  zip_error_fini(&ze);
+  const zip_int64_t i = zip_file_add(za_, name.c_str(), src, 0);
+  if (i < 0) {
+    zip_source_free(src);
+    fail(out_.target(), "", "cannot add ZIP member '" + name + "': " + zip_strerror(za_));
   }
-  if (e.compressed_size >= k32 || e.uncompressed_size >= k32 || offset_ >= k32)
-    fail(out_.target(), "",
-         "ZIP member '" + name +
-             "' or the archive reaches 4 GiB; the npz writer has no ZIP64 "
-             "support: split the data into several files");
-  uint8_t h[30] = {};
-  store_le32(h, kLocalSig);
-  store_le16(h + 4, 20);
-  store_le16(h + 8, e.method);
-  store_le16(h + 12, 0x0021);  // fixed DOS date 1980-01-01: output is reproducible
-  store_le32(h + 14, e.crc32);
-  store_le32(h + 18, uint32_t(e.compressed_size));
-  store_le32(h + 22, uint32_t(e.uncompressed_size));
-  store_le16(h + 26, uint16_t(name.size()));
-  out_.write(h, 30);
-  out_.write(name);
-  out_.write(payload, e.compressed_size);
-  offset_ += 30 + name.size() + e.compressed_size;
-  entries_.push_back(std::move(e));
+  const zip_uint64_t idx = zip_uint64_t(i);
+  if (zip_set_file_compression(za_, idx, deflate_ ? ZIP_CM_DEFLATE : ZIP_CM_STORE,
+                               deflate_ ? zip_uint32_t(level_) : 0) != 0 ||
+      zip_file_set_dostime(za_, idx, 0, 0x0021, 0) != 0)  // 00:00, 1980-01-01
+    fail(out_.target(), "", "ZIP member '" + name + "': " + zip_strerror(za_));
+  ++count_;
 }
 
 void ZipWriter::finish() {
   if (finished_) return;
   finished_ = true;
-  if (entries_.size() >= 0xFFFF) fail(out_.target(), "", "too many ZIP members (no ZIP64 support)");
-  uint64_t cd_start = offset_;
-  for (const auto& e : entries_) {
-    uint8_t h[46] = {};
-    store_le32(h, kCentralSig);
-    store_le16(h + 4, 20);
-    store_le16(h + 6, 20);
-    store_le16(h + 10, e.method);
-    store_le16(h + 14, 0x0021);
-    store_le32(h + 16, e.crc32);
-    store_le32(h + 20, uint32_t(e.compressed_size));
-    store_le32(h + 24, uint32_t(e.uncompressed_size));
-    store_le16(h + 28, uint16_t(e.name.size()));
-    store_le32(h + 42, uint32_t(e.local_header_offset));
-    out_.write(h, 46);
-    out_.write(e.name);
-    offset_ += 46 + e.name.size();
+  zip_t* za = za_;
+  za_ = nullptr;
+  if (zip_close(za) != 0) {
+    std::string why = zip_strerror(za);
+    zip_discard(za);
+    fail(out_.target(), "", "cannot write the ZIP archive: " + why);
   }
-  if (offset_ >= k32) fail(out_.target(), "", "ZIP archive reaches 4 GiB (no ZIP64 support)");
-  uint8_t z[22] = {};
-  store_le32(z, kEocdSig);
-  store_le16(z + 8, uint16_t(entries_.size()));
-  store_le16(z + 10, uint16_t(entries_.size()));
-  store_le32(z + 12, uint32_t(offset_ - cd_start));
-  store_le32(z + 16, uint32_t(cd_start));
-  out_.write(z, 22);
+  if (count_ == 0) {
+    // libzip writes no file for an empty archive; numpy writes a bare end record.
+    uint8_t eocd[kEocdSize] = {};
+    store_le32(eocd, 0x06054b50);
+    out_.write(eocd, sizeof eocd);
+    return;
+  }
+  // AtomicFile fsyncs only what it wrote itself.
+  int fd = ::open(out_.temp_path().c_str(), O_RDONLY);
+  if (fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
+  }
 }
 
 }  // namespace spikems

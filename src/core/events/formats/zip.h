@@ -1,18 +1,20 @@
-// A small ZIP reader and writer, enough for NumPy .npz archives (PKWARE APPNOTE 6.3.x:
-// https://pkware.cachefly.net/webdocs/casestudies/APPNOTE.TXT).
+// ZIP archives for NumPy .npz files, on libzip (https://libzip.org, Debian's libzip-dev).
 //
-// Reader: end-of-central-directory record (with ZIP64 EOCD and ZIP64 extra fields, which numpy
-// writes for large arrays), central directory, local headers; methods 0 (stored) and 8
-// (deflate); CRC-32 checked. Every size and offset is checked against the archive before use,
-// so a corrupt header cannot make the reader allocate or read out of bounds.
-// Writer: stored or deflate members with CRC; no ZIP64 (members or archives of 4 GiB and more
-// are refused with an error rather than written corrupt).
+// libzip parses the end records (ZIP64 included, which numpy writes for large arrays), the
+// central directory and the local headers, inflates, and checks each member's CRC-32 and size.
+// This layer adds what the npz readers need on top: errors that name the file and the reason,
+// a magic-byte check, and size checks before any allocation (a corrupt header cannot make a
+// reader allocate more than the archive could hold).
 #pragma once
 
 #include <cstdint>
+#include <memory>
+#include <mutex>
+#include <span>
 #include <string>
-#include <utility>
 #include <vector>
+
+struct zip;  // libzip's zip_t
 
 namespace spikems {
 
@@ -20,39 +22,63 @@ class AtomicFile;
 
 struct ZipEntry {
   std::string name;
+  uint64_t index = 0;   // position in the central directory
   uint16_t method = 0;  // 0 stored, 8 deflate
-  uint16_t flags = 0;
   uint32_t crc32 = 0;
   uint64_t compressed_size = 0;
   uint64_t uncompressed_size = 0;
-  uint64_t local_header_offset = 0;
 };
 
-// Lists the members of an in-memory archive from its central directory.
-std::vector<ZipEntry> zip_list(const uint8_t* data, size_t n, const std::string& source);
-// The same from a file, reading only its end records and central directory (cheap detection).
+// A read-only archive, its member list read once.
+class ZipArchive {
+ public:
+  // From a file: libzip reads only the end records and the central directory, then each
+  // member on demand (EV-IMO npz files hold gigabytes beside a small member).
+  explicit ZipArchive(const std::string& path);
+  // From memory, not copied: the caller keeps data alive. `source` names it in errors.
+  ZipArchive(const uint8_t* data, size_t n, std::string source);
+  ~ZipArchive();
+  ZipArchive(const ZipArchive&) = delete;
+  ZipArchive& operator=(const ZipArchive&) = delete;
+
+  const std::vector<ZipEntry>& entries() const { return entries_; }
+  const ZipEntry* find(const std::string& name) const;  // null when absent
+  // The member's bytes, decompressed; its size and CRC-32 checked. Thread-safe.
+  std::vector<uint8_t> read(const ZipEntry& e) const;
+  const std::string& source() const { return source_; }
+
+ private:
+  void index();
+  std::string source_;
+  uint64_t size_ = 0;  // archive bytes
+  zip* za_ = nullptr;
+  std::vector<ZipEntry> entries_;
+  mutable std::mutex mu_;  // libzip handles are not thread-safe
+};
+
+// Lists the members of a ZIP file (cheap: end records and central directory only).
 std::vector<ZipEntry> zip_list_file(const std::string& path);
-// Decompresses one member and checks its size and CRC-32.
-std::vector<uint8_t> zip_extract(const uint8_t* data, size_t n, const ZipEntry& e,
-                                 const std::string& source);
 
-// A stored (method 0) member in place, after its CRC-32 check: {pointer into data, size}.
-std::pair<const uint8_t*, size_t> zip_stored_view(const uint8_t* data, size_t n, const ZipEntry& e,
-                                                  const std::string& source);
-
-// Writes an archive member by member into an AtomicFile (the caller commits it).
+// Writes an archive into an AtomicFile (nothing else may have been written to it); finish()
+// writes it, then the caller commits. Members have a fixed DOS date (1980-01-01), so the same
+// arrays always give the same bytes.
 class ZipWriter {
  public:
   ZipWriter(AtomicFile& out, bool deflate, int level = 6);
-  void add(const std::string& name, const uint8_t* data, size_t n);
-  void finish();  // writes the central directory; call once, before out.commit()
+  ~ZipWriter();
+  ZipWriter(const ZipWriter&) = delete;
+  ZipWriter& operator=(const ZipWriter&) = delete;
+  // One member made of `pieces` in order. Not copied: they must stay alive until finish().
+  void add(const std::string& name, const std::vector<std::span<const uint8_t>>& pieces);
+  void add(const std::string& name, const uint8_t* data, size_t n) { add(name, {{data, n}}); }
+  void finish();  // call once, before out.commit()
 
  private:
   AtomicFile& out_;
   bool deflate_;
   int level_;
-  uint64_t offset_ = 0;
-  std::vector<ZipEntry> entries_;
+  zip* za_ = nullptr;
+  size_t count_ = 0;
   bool finished_ = false;
 };
 

@@ -1,3 +1,5 @@
+// The hand-written FlatBuffers reader that the flatc-generated code replaced, kept only so
+// bench_formats_libs can compare both in one process; not part of any shipped target.
 // A small, bounds-checked reader and a minimal builder for the few FlatBuffers tables of
 // AEDAT 4.0 (IOHeader, EventPacket). Every offset read from the buffer is checked against its
 // size before use, so a corrupt file raises spikems::Error and never reads out of bounds.
@@ -10,7 +12,7 @@
 #include <string_view>
 #include <vector>
 
-namespace spikems {
+namespace spikems::legacy {
 
 class FlatView {
  public:
@@ -56,4 +58,4 @@ class FlatBuilder {
   void put_bytes(const void* p, size_t n);
 };
 
-}  // namespace spikems
+}  // namespace spikems::legacy

@@ -1,11 +1,11 @@
-#include "core/events/formats/flatbuffer.h"
+#include "legacy/legacy_flatbuffer.h"
 
 #include <cstring>
 
 #include "core/util/byte_source.h"
 #include "core/util/error.h"
 
-namespace spikems {
+namespace spikems::legacy {
 
 void FlatView::bad(size_t pos, const std::string& what) const {
   fail_at_byte(source_, base_ + pos, "corrupt FlatBuffers data: " + what);
@@ -99,4 +99,4 @@ void FlatBuilder::put_bytes(const void* p, size_t n) {
   buf.insert(buf.end(), b, b + n);
 }
 
-}  // namespace spikems
+}  // namespace spikems::legacy
