@@ -186,7 +186,7 @@ TEST_F(Browser, DemoPageAndItsReportRender) {
             0)
       << out;
   const Rendered index = render(demo + "/index.html", dir_ + "/chromium_index");
-  expect_rendered(index, demo + "/index.html", 1);
+  expect_rendered(index, demo + "/index.html", 1 + 3);  // events.png and 3 windows at least
   EXPECT_NE(index.dom.find("href=\"eval/report.html\""), std::string::npos)
       << "index.html does not link the evaluation report";
   const Rendered report = render(demo + "/eval/report.html", dir_ + "/chromium_report");
