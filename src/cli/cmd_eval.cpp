@@ -40,14 +40,20 @@ void run(const Args& a) {
   o.max_seconds = a.max_seconds;
   o.progress = !a.quiet;
   o.command_line = cli::invoked_command();
-  const EvalResults r = evaluate(o);
-  if (!a.out.empty()) write_results(r, a.out);
+  // With --out, a few windows per sequence are kept from the same pass for report.html.
+  EvalExamples examples;
+  const EvalResults r = evaluate(o, a.out.empty() ? nullptr : &examples);
+  if (!a.out.empty()) {
+    write_results(r, a.out);
+    write_report(r, examples, a.out);
+  }
   std::fputs(results_table(r).c_str(), stdout);
   std::fflush(stdout);
   if (r.interrupted)
     std::fprintf(stderr, "spikems eval: interrupted; the results hold the sequences finished\n");
   if (!a.out.empty() && !a.quiet)
-    std::fprintf(stderr, "results in %s/results.{json,csv,md}\n", a.out.c_str());
+    std::fprintf(stderr, "results in %s/results.{json,csv,md}, report in %s/report.html\n",
+                 a.out.c_str(), a.out.c_str());
 }
 
 void add(CLI::App& app) {
@@ -84,7 +90,9 @@ void add(CLI::App& app) {
   cmd->add_option("--windows", a.windows,
                   "Window lengths in ms, comma-separated; ranges FROM:TO[:STEP] (1:25 = 1..25)")
       ->capture_default_str();
-  cmd->add_option("--out", a.out, "Folder for results.json, results.csv and results.md");
+  cmd->add_option("--out", a.out,
+                  "Folder for results.json, results.csv, results.md and report.html (with "
+                  "plots/*.svg and windows/*.png)");
   cmd->add_option("--threads", a.threads,
                   "Threads inside the network (the layers of a step run in parallel)")
       ->check(CLI::Range(1, 256));

@@ -10,6 +10,7 @@
 #include "common/test_paths.h"
 #include "common/tiny_models.h"
 #include "core/dataset/sequence.h"
+#include "core/eval/evaluation.h"
 #include "core/model/model_file.h"
 
 namespace spikems {
@@ -243,6 +244,72 @@ TEST_F(EvalCli, HelpShowsOptionsAndExamples) {
   for (const char* k : {"--model", "--data", "--split", "--windows", "--out", "--threads", "--iir",
                         "--max-seconds", "--quiet", "Examples", "1:25"})
     EXPECT_NE(out.find(k), std::string::npos) << k;
+}
+
+// --out also writes the report, and the windows it shows come from the scoring pass itself:
+// for the baseline, P is exactly the pixels with an event in the window and G those with a
+// moving-object event.
+TEST_F(EvalCli, ReportShowsWindowsCapturedWhileScoring) {
+  const std::string o = dir_ + "/out_report";
+  std::string out;
+  ASSERT_EQ(run_command(eval("--baseline all-events --data " + data() +
+                             " --split all --windows 20,100 --out " + o),
+                        &out),
+            0)
+      << out;
+  for (const char* f : {"report.html", "plots/iou_by_window_1.svg", "plots/iou_per_sequence_1.svg"})
+    EXPECT_TRUE(fs::is_regular_file(o + "/" + f)) << f;
+  // 3 windows of 20 ms per sequence (fewer where fewer windows hold moving objects).
+  size_t want_png = 0;
+  for (const auto& e : fs::directory_iterator(data()))
+    if (e.path().extension() == ".h5")
+      want_png += example_windows(load_sequence(e.path().string()), 20000, 3).size();
+  size_t png = 0;
+  for (const auto& e : fs::directory_iterator(o + "/windows"))
+    png += e.path().extension() == ".png";
+  EXPECT_GT(want_png, 0u);
+  EXPECT_EQ(png, want_png);
+
+  EvalOptions opt;
+  opt.models = {model()};
+  opt.baselines = {"all-events"};
+  opt.data = {data()};
+  opt.split = "all";
+  opt.windows_us = {10000, 100000};  // no 20 ms: the length nearest it, 10 ms, is shown
+  opt.example_sequences = 2;         // of 3
+  opt.example_windows = 2;
+  EvalExamples ex;
+  const EvalResults r = evaluate(opt, &ex);
+  ASSERT_EQ(r.models.size(), 2u);
+  EXPECT_EQ(ex.window_us, 10000);
+  ASSERT_EQ(ex.datasets.size(), 1u);
+  ASSERT_EQ(ex.datasets[0].size(), 2u);
+  for (const SequenceExamples& s : ex.datasets[0]) {
+    const LabelledSequence seq = load_sequence(s.name);
+    const EventStream& ev = seq.events;
+    const std::vector<int64_t> k = example_windows(seq, 10000, 2);
+    ASSERT_EQ(s.windows.size(), k.size()) << s.name;
+    for (size_t i = 0; i < k.size(); ++i) {
+      const ExampleWindow& w = s.windows[i];
+      EXPECT_EQ(w.t0_us, k[i] * 10000);
+      EXPECT_EQ(w.t1_us, w.t0_us + 10000);
+      ASSERT_EQ(w.predicted.size(), 2u);  // the model, then the baseline
+      std::vector<uint8_t> p(size_t(ev.sensor.width) * size_t(ev.sensor.height), 0), g = p;
+      const auto [b, e] = ev.time_range(ev.t_first() + w.t0_us, ev.t_first() + w.t1_us);
+      for (size_t j = b; j < e; ++j) {
+        const size_t px = size_t(ev.y[j]) * size_t(ev.sensor.width) + ev.x[j];
+        p[px] = 1;
+        if (ev.label[j] != 0) g[px] = 1;
+      }
+      EXPECT_EQ(w.truth, g);
+      EXPECT_EQ(w.predicted[1], p);
+      const MaskCounts c = count_masks(p, g);
+      EXPECT_EQ(w.counts[1].intersection, c.intersection);
+      EXPECT_EQ(w.counts[1].predicted, c.predicted);
+      EXPECT_GT(c.truth, 0u);  // shown windows hold moving objects
+      EXPECT_EQ(w.events.width, ev.sensor.width);
+    }
+  }
 }
 
 }  // namespace

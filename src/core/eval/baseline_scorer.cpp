@@ -16,6 +16,7 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
   if (ev.empty()) return r;
 
   WindowScorer scorer(ev.sensor, windows_us);
+  if (!opt.capture_windows.empty()) scorer.capture(opt.capture_window_us, opt.capture_windows);
   const int64_t F = scorer.frame_us();
   PredictionFrame f;
   f.width = ev.sensor.width;
@@ -52,6 +53,7 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
   scorer.finish(end);
   r.span_us = end - t0;
   r.scores = scorer.scores();
+  r.captured = scorer.captured();
   return r;
 }
 

@@ -9,12 +9,46 @@
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
 #include "core/util/progress.h"
+#include "core/viz/event_frame.h"
 
 namespace spikems {
 
 namespace fs = std::filesystem;
 
-EvalResults evaluate(const EvalOptions& opt) {
+namespace {
+
+// The windows every run captured for one sequence, as one ExampleWindow each (input events
+// rendered here, while the sequence is loaded).
+SequenceExamples collect_examples(const LabelledSequence& seq,
+                                  const std::vector<const SequenceScore*>& runs) {
+  SequenceExamples out;
+  out.name = seq.name;
+  if (runs.empty() || seq.events.empty()) return out;
+  const int64_t origin = seq.events.t_first();
+  for (size_t k = 0; k < runs[0]->captured.size(); ++k) {
+    const CapturedWindow& c = runs[0]->captured[k];
+    ExampleWindow w;
+    w.t0_us = c.t0_us - origin;
+    w.t1_us = c.t1_us - origin;
+    w.width = c.width;
+    w.height = c.height;
+    w.truth = c.truth;
+    w.events = render_events(seq.events, c.t0_us, c.t1_us, seq.events.sensor);
+    for (const SequenceScore* r : runs) {
+      // Every run scores the same windows of the same data, so it captured the same ones.
+      if (k >= r->captured.size() || r->captured[k].index != c.index)
+        fail(seq.name, "", "internal: runs captured different windows for the report");
+      w.predicted.push_back(r->captured[k].predicted);
+      w.counts.push_back(r->captured[k].counts);
+    }
+    out.windows.push_back(std::move(w));
+  }
+  return out;
+}
+
+}  // namespace
+
+EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   std::vector<std::string> paths = opt.models;
   if (!opt.model_path.empty()) paths.insert(paths.begin(), opt.model_path);
   for (const auto& b : opt.baselines)
@@ -79,8 +113,14 @@ EvalResults evaluate(const EvalOptions& opt) {
   so.threads = opt.threads;
   so.max_us = opt.max_seconds > 0 ? int64_t(opt.max_seconds * 1e6 + 0.5) : 0;
   size_t done = 0;
+  const bool want_examples = examples && opt.example_windows > 0 && opt.example_sequences > 0;
+  if (examples) {
+    *examples = EvalExamples{};
+    examples->window_us = example_window_length(opt.windows_us);
+  }
   for (const auto& s : sources) {
     std::vector<std::vector<SequenceScore>> scores(runs);
+    std::vector<SequenceExamples> shown;
     for (const auto& f : s.files) {
       if (interrupted()) break;
       const std::string name = fs::path(f).filename().string();
@@ -88,6 +128,13 @@ EvalResults evaluate(const EvalOptions& opt) {
       bar.update(done);
       const LabelledSequence seq = load_sequence(f, s.src.mask_dilation);
       const uint64_t n = seq.events.size();
+      // The report's windows come from this same pass (no second run).
+      so.capture_windows.clear();
+      if (want_examples && shown.size() < size_t(opt.example_sequences)) {
+        so.capture_window_us = examples->window_us;
+        so.capture_windows =
+            example_windows(seq, so.capture_window_us, opt.example_windows, so.max_us);
+      }
       bool complete = true;
       for (size_t i = 0; i < runs && complete; ++i) {
         so.progress = [&](uint64_t k) {
@@ -108,10 +155,18 @@ EvalResults evaluate(const EvalOptions& opt) {
           if (v.size() > scores[runs - 1].size()) v.pop_back();
         break;
       }
+      if (!so.capture_windows.empty()) {
+        std::vector<const SequenceScore*> last;
+        for (auto& v : scores) last.push_back(&v.back());
+        shown.push_back(collect_examples(seq, last));
+        for (auto& v : scores) v.back().captured.clear();  // the masks live in `shown` now
+      }
     }
-    if (!scores[0].empty() || !interrupted())
+    if (!scores[0].empty() || !interrupted()) {
       for (size_t i = 0; i < runs; ++i)
         res[i].datasets.push_back(dataset_result(s.src.path, s.folder ? opt.split : "", scores[i]));
+      if (examples) examples->datasets.push_back(std::move(shown));
+    }
     if (interrupted()) {
       r.interrupted = true;
       break;

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/eval/report.h"
 #include "core/eval/results.h"
 
 namespace spikems {
@@ -26,6 +27,10 @@ struct EvalOptions {
   double max_seconds = 0;    // > 0: only the first max_seconds of each sequence
   bool progress = false;     // progress bar on stderr
   std::string command_line;  // recorded in the results
+  // Windows shown in report.html (filled only when evaluate() gets an EvalExamples): so many
+  // per sequence, for the first example_sequences sequences of each dataset.
+  int example_windows = 3;
+  int example_sequences = 8;
 };
 
 // Loads the models and checks the windows and every data source before the first sequence
@@ -33,6 +38,8 @@ struct EvalOptions {
 // the sequences finished so far, marked interrupted. Throws Error naming the file and what to
 // do: unreadable or invalid model, a window that is not a multiple of the model's step, a
 // missing path, an empty or unknown split, a sequence without labels.
-EvalResults evaluate(const EvalOptions& opt);
+// With `examples`, also keeps a few windows per sequence for the report (report.h), captured
+// in the same scoring pass.
+EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples = nullptr);
 
 }  // namespace spikems

@@ -227,27 +227,46 @@ std::string results_csv(const EvalResults& r) {
   return out;
 }
 
-// The model column: the file name, or the path as given where two models share a file name
-// (runs/a/best.safetensors against runs/b/best.safetensors).
-static std::string model_label(const EvalResults& r, const ModelResult& m) {
+std::string model_label(const EvalResults& r, const ModelResult& m) {
   for (const auto& o : r.models)
     if (&o != &m && file_name(o.path) == file_name(m.path)) return m.path;
   return file_name(m.path);
 }
 
-std::string results_table(const EvalResults& r) {
-  std::vector<std::vector<std::string>> rows;
+TextTable summary_table(const EvalResults& r) {
+  TextTable t;
+  t.header = {"model",       "data",    "split",   "Δt ms",    "IoU % (mean ± std)",
+              "detection %", "windows", "skipped", "sequences"};
   for (const auto& m : r.models)
     for (const auto& d : m.datasets)
       for (const auto& w : d.windows) {
         auto sc = score_cells(w);
-        rows.push_back({model_label(r, m), d.data, d.split.empty() ? "–" : d.split,
-                        fmt("%g", window_ms(w.window_us)), sc[0], sc[1], std::to_string(w.windows),
-                        std::to_string(w.skipped), std::to_string(w.sequences)});
+        t.rows.push_back({model_label(r, m), d.data, d.split.empty() ? "–" : d.split,
+                          fmt("%g", window_ms(w.window_us)), sc[0], sc[1],
+                          std::to_string(w.windows), std::to_string(w.skipped),
+                          std::to_string(w.sequences)});
       }
-  return markdown_table({"model", "data", "split", "Δt ms", "IoU % (mean ± std)", "detection %",
-                         "windows", "skipped", "sequences"},
-                        rows);
+  return t;
+}
+
+TextTable sequence_table(const EvalResults& r) {
+  TextTable t;
+  t.header = {"model",       "sequence", "Δt ms",  "IoU % (mean ± std)",
+              "detection %", "windows",  "skipped"};
+  for (const auto& m : r.models)
+    for (const auto& d : m.datasets)
+      for (const auto& s : d.sequences)
+        for (const auto& w : s.windows) {
+          auto sc = score_cells(w);
+          t.rows.push_back({model_label(r, m), file_name(s.name), fmt("%g", window_ms(w.window_us)),
+                            sc[0], sc[1], std::to_string(w.windows), std::to_string(w.skipped)});
+        }
+  return t;
+}
+
+std::string results_table(const EvalResults& r) {
+  const TextTable t = summary_table(r);
+  return markdown_table(t.header, t.rows);
 }
 
 std::string results_markdown(const EvalResults& r) {
@@ -267,18 +286,8 @@ std::string results_markdown(const EvalResults& r) {
       "docs/evaluation.md.\n\n";
   out += results_table(r);
   out += "\n## Per sequence\n\n";
-  std::vector<std::vector<std::string>> rows;
-  for (const auto& m : r.models)
-    for (const auto& d : m.datasets)
-      for (const auto& s : d.sequences)
-        for (const auto& w : s.windows) {
-          auto sc = score_cells(w);
-          rows.push_back({model_label(r, m), file_name(s.name), fmt("%g", window_ms(w.window_us)),
-                          sc[0], sc[1], std::to_string(w.windows), std::to_string(w.skipped)});
-        }
-  out += markdown_table(
-      {"model", "sequence", "Δt ms", "IoU % (mean ± std)", "detection %", "windows", "skipped"},
-      rows);
+  const TextTable t = sequence_table(r);
+  out += markdown_table(t.header, t.rows);
   return out;
 }
 

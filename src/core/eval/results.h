@@ -66,6 +66,20 @@ std::string utc_now_iso8601();
 // Keys in the documented order (docs/evaluation.md), for people reading the file.
 nlohmann::ordered_json results_json(const EvalResults& r);
 std::string results_csv(const EvalResults& r);
+// A table as text cells. results.md, the printed table and report.html all take their tables
+// from summary_table and sequence_table, so a column added there shows everywhere.
+struct TextTable {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+};
+// One row per model, dataset and window length.
+TextTable summary_table(const EvalResults& r);
+// One row per model, sequence and window length.
+TextTable sequence_table(const EvalResults& r);
+// A model's short name in tables and plots: its file name, or the path as given where two
+// models share a file name (runs/a/best.safetensors against runs/b/best.safetensors).
+std::string model_label(const EvalResults& r, const ModelResult& m);
+
 // The summary table (one row per model, dataset and window), columns aligned.
 std::string results_table(const EvalResults& r);
 std::string results_markdown(const EvalResults& r);

@@ -58,6 +58,27 @@ SequenceScore empty_score(const LabelledSequence& seq, const std::vector<int64_t
   return r;
 }
 
+std::vector<int64_t> example_windows(const LabelledSequence& seq, int64_t window_us, int count,
+                                     int64_t max_us) {
+  if (window_us <= 0 || count <= 0) return {};
+  const auto [n, t0, end] = scored_span(seq, max_us);
+  const int64_t complete = (end - t0) / window_us;
+  std::vector<int64_t> moving;  // windows with a moving-object event, ascending
+  const EventStream& ev = seq.events;
+  for (size_t i = 0; i < n; ++i) {
+    if (ev.label[i] == 0) continue;
+    const int64_t k = (ev.t[i] - t0) / window_us;
+    if (k >= complete) break;
+    if (moving.empty() || moving.back() != k) moving.push_back(k);
+  }
+  if (moving.size() <= size_t(count)) return moving;
+  // The middle of each of `count` equal shares of the list.
+  std::vector<int64_t> pick;
+  for (int i = 0; i < count; ++i)
+    pick.push_back(moving[(2 * size_t(i) + 1) * moving.size() / (2 * size_t(count))]);
+  return pick;
+}
+
 SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq,
                              const std::vector<int64_t>& windows_us,
                              const SequenceScoreOptions& opt) {
@@ -68,6 +89,7 @@ SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq
   if (ev.empty()) return r;
 
   WindowScorer scorer(ev.sensor, windows_us);
+  if (!opt.capture_windows.empty()) scorer.capture(opt.capture_window_us, opt.capture_windows);
   SegmenterOptions so;
   so.mask_window_us = scorer.frame_us();
   so.threads = opt.threads;
@@ -98,6 +120,7 @@ SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq
   scorer.finish(end);
   r.span_us = end - t0;
   r.scores = scorer.scores();
+  r.captured = scorer.captured();
   return r;
 }
 

@@ -11,6 +11,7 @@
 
 #include "core/dataset/sequence.h"
 #include "core/eval/metrics.h"
+#include "core/eval/window_scorer.h"
 #include "core/model/model_file.h"
 
 namespace spikems {
@@ -22,6 +23,10 @@ struct SequenceScoreOptions {
   // Called after each chunk with the events pushed so far; returning false stops the run
   // (the result then has complete = false and no scores).
   std::function<bool(uint64_t events_done)> progress;
+  // Windows of length capture_window_us (one of the scored lengths) whose P and G are kept
+  // (SequenceScore::captured), by index from the first event; see example_windows().
+  int64_t capture_window_us = 0;
+  std::vector<int64_t> capture_windows;
 };
 
 struct SequenceScore {
@@ -30,7 +35,8 @@ struct SequenceScore {
   int64_t span_us = 0;  // first event to the end of the data scored (partial window included)
   bool complete = true;
   std::vector<int64_t> windows_us;
-  std::vector<WindowScores> scores;  // one per window length
+  std::vector<WindowScores> scores;      // one per window length
+  std::vector<CapturedWindow> captured;  // the windows asked for in capture_windows
 };
 
 // The model's simulation step in microseconds (as the Segmenter takes it).
@@ -51,6 +57,13 @@ struct ScoredSpan {
 ScoredSpan scored_span(const LabelledSequence& seq, int64_t max_us);
 // A score for `seq` with one empty WindowScores per length (complete; filled by the scorers).
 SequenceScore empty_score(const LabelledSequence& seq, const std::vector<int64_t>& windows_us);
+
+// Up to `count` complete windows of length window_us to show from a sequence, evenly spaced
+// over the windows that hold moving-object events (a window with nothing to find says little),
+// by index from the first event; all such windows when there are no more than `count`. The
+// span is scored_span(seq, max_us)'s.
+std::vector<int64_t> example_windows(const LabelledSequence& seq, int64_t window_us, int count,
+                                     int64_t max_us = 0);
 
 // Windows start at the first event; the last, partial window is dropped. Throws Error (naming
 // the sequence) for unlabelled events, a model that does not fit the sensor, or a bad window.

@@ -100,6 +100,16 @@ void WindowScorer::add_frame(const PredictionFrame& f) {
   for (size_t i = 0; i < lengths_.size(); ++i) score_ready(i);
 }
 
+void WindowScorer::capture(int64_t window_us, std::vector<int64_t> indices) {
+  const auto it = std::find(windows_.begin(), windows_.end(), window_us);
+  if (it == windows_.end())
+    fail("window scorer", "", "cannot capture windows of a length that is not scored");
+  capture_length_ = size_t(it - windows_.begin());
+  std::sort(indices.begin(), indices.end());
+  capture_indices_ = std::move(indices);
+  captured_.clear();
+}
+
 void WindowScorer::score_ready(size_t i) {
   // A window is final when all its frames have come and an event at or after its end was
   // seen (so its truth is complete and the data goes on past it).
@@ -123,6 +133,20 @@ void WindowScorer::score(size_t i, int64_t k) {
     }
   }
   scores_[i].add(c);
+  if (i == capture_length_ &&
+      std::binary_search(capture_indices_.begin(), capture_indices_.end(), k)) {
+    CapturedWindow w;
+    w.index = k;
+    w.t0_us = origin_ + k * l.window_us;
+    w.t1_us = w.t0_us + l.window_us;
+    w.width = sensor_.width;
+    w.height = sensor_.height;
+    const size_t px = size_t(sensor_.width) * size_t(sensor_.height);
+    w.predicted = p != l.p.end() ? p->second : std::vector<uint8_t>(px, 0);
+    w.truth = g != l.g.end() ? g->second : std::vector<uint8_t>(px, 0);
+    w.counts = c;
+    captured_.push_back(std::move(w));
+  }
   auto release = [&](std::map<int64_t, std::vector<uint8_t>>& m) {
     for (auto it = m.begin(); it != m.end() && it->first <= k; it = m.erase(it)) {
       std::fill(it->second.begin(), it->second.end(), 0);

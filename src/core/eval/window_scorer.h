@@ -20,6 +20,15 @@
 
 namespace spikems {
 
+// A scored window kept whole for a picture (report.html): its P and G exactly as scored.
+struct CapturedWindow {
+  int64_t index = 0;             // window k of its length
+  int64_t t0_us = 0, t1_us = 0;  // [t0, t1), absolute times
+  int width = 0, height = 0;
+  std::vector<uint8_t> predicted, truth;  // P and G, row-major, 0/1
+  MaskCounts counts;
+};
+
 // Greatest common divisor of positive window lengths.
 int64_t frame_length_us(const std::vector<int64_t>& windows_us);
 
@@ -48,6 +57,14 @@ class WindowScorer {
   // One per length, in the order given.
   const std::vector<WindowScores>& scores() const { return scores_; }
 
+  // Keeps P and G of windows `indices` of length `window_us` (one of the lengths) when they
+  // are scored, so a report can show them without a second run; call before the first frame.
+  // Throws Error for a length that is not scored.
+  void capture(int64_t window_us, std::vector<int64_t> indices);
+  // The captured windows, in time order (windows past the end of the data are not scored and
+  // so not captured).
+  const std::vector<CapturedWindow>& captured() const { return captured_; }
+
  private:
   struct PerLength {
     int64_t window_us = 0, frames_per_window = 0;
@@ -72,6 +89,9 @@ class WindowScorer {
   std::vector<uint32_t> fg_pixels_;         // scratch: a frame's predicted pixels
   std::vector<std::vector<uint8_t>> pool_;  // cleared masks for reuse
   std::vector<uint8_t> zeros_;              // P of a window without predictions
+  size_t capture_length_ = SIZE_MAX;        // index into lengths_, SIZE_MAX: none
+  std::vector<int64_t> capture_indices_;    // sorted
+  std::vector<CapturedWindow> captured_;
 };
 
 // Scores recorded or hand-made frames against labelled events in one go (see WindowScorer).

@@ -8,6 +8,19 @@
 
 namespace spikems {
 
+namespace {
+// After the load event (every image loaded or failed), marks <body> with the number of images
+// and whether all of them decoded: data-images-ok="true" lets a headless browser's dumped DOM
+// prove that the page rendered (tests/browser). No <, > or & so the page stays well-formed XML.
+constexpr const char* kImageCheck =
+    "<script>\nwindow.addEventListener('load', function () {\n"
+    "  var imgs = Array.prototype.slice.call(document.images);\n"
+    "  var ok = imgs.every(function (i) { return i.complete ? i.naturalWidth !== 0 : false; });\n"
+    "  document.body.setAttribute('data-images', String(imgs.length));\n"
+    "  document.body.setAttribute('data-images-ok', ok ? 'true' : 'false');\n"
+    "});\n</script>\n";
+}  // namespace
+
 HtmlReport::HtmlReport(std::string title) : title_(std::move(title)) {
   body_ += "<h1>" + xml_escape(title_) + "</h1>\n";
 }
@@ -72,7 +85,7 @@ std::string HtmlReport::str() const {
          "#bbb; padding: 3px 8px; text-align: right; }\nth { background: #eee; }\nfigure { "
          "display: inline-block; margin: 0.5em; }\nimg { image-rendering: pixelated; }\npre { "
          "background: #f4f4f4; padding: 0.5em; }\n</style>\n</head>\n<body>\n" +
-         body_ + "</body>\n</html>\n";
+         body_ + kImageCheck + "</body>\n</html>\n";
 }
 
 void HtmlReport::write(const std::string& path) const {

@@ -1,6 +1,7 @@
 // A self-contained HTML report page, built piece by piece: headings, paragraphs, tables,
 // images by relative path and inline SVG charts. The output is well-formed XHTML-style markup
-// (every element closed), so it can be checked and parsed by simple tools.
+// (every element closed), so it can be checked and parsed by simple tools. A small script marks
+// <body data-images-ok="true"> once every image has loaded (false if one failed).
 #pragma once
 
 #include <string>

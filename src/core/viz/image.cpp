@@ -49,6 +49,32 @@ Image hstack(const Image& a, const Image& b, int gap) {
   return out;
 }
 
+Image framed_row(const std::vector<Image>& panels, int gap) {
+  if (panels.empty()) return {};
+  int w = gap * int(panels.size() - 1), h = 0;
+  for (const Image& p : panels) {
+    w += p.width + 2;
+    h = std::max(h, p.height + 2);
+  }
+  Image out(w, h);
+  int x0 = 0;
+  for (const Image& p : panels) {
+    for (int x = 0; x < p.width + 2; ++x) {
+      out.set(x0 + x, 0, kFrameGrey, kFrameGrey, kFrameGrey);
+      out.set(x0 + x, p.height + 1, kFrameGrey, kFrameGrey, kFrameGrey);
+    }
+    for (int y = 0; y < p.height + 2; ++y) {
+      out.set(x0, y, kFrameGrey, kFrameGrey, kFrameGrey);
+      out.set(x0 + p.width + 1, y, kFrameGrey, kFrameGrey, kFrameGrey);
+    }
+    for (int y = 0; y < p.height; ++y)
+      std::memcpy(&out.rgb[(size_t(y + 1) * size_t(out.width) + size_t(x0 + 1)) * 3], p.px(0, y),
+                  size_t(p.width) * 3);
+    x0 += p.width + 2 + gap;
+  }
+  return out;
+}
+
 void write_png(const std::string& path, const Image& img) {
   if (img.width <= 0 || img.height <= 0 ||
       img.rgb.size() != size_t(img.width) * size_t(img.height) * 3)

@@ -30,6 +30,11 @@ Image upscale(const Image& img, int factor);
 // a and b side by side (heights may differ: the rest is white), separated by `gap` white pixels.
 Image hstack(const Image& a, const Image& b, int gap = 0);
 
+// Panels side by side, each inside a 1-pixel grey frame (white panels stay apart), `gap`
+// white pixels between frames, tops aligned; the rest is white. Empty input: an empty image.
+inline constexpr uint8_t kFrameGrey = 150;
+Image framed_row(const std::vector<Image>& panels, int gap = 6);
+
 // Writes an 8-bit RGB PNG atomically (temporary file renamed into place).
 void write_png(const std::string& path, const Image& img);
 // Reads any PNG (grey, palette, alpha, 16-bit) converted to 8-bit RGB.

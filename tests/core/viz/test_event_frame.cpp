@@ -173,3 +173,23 @@ TEST(EventFrame, MaskComparisonSpikesAndStacking) {
   EXPECT_TRUE(is(r, 1, 0, kOffColor));
   EXPECT_TRUE(is(r, 2, 0, kBothColor));
 }
+
+TEST(EventFrame, FramedRowKeepsPanelsApart) {
+  // A 2x1 red panel and a 1x2 blue one, gap 1: frames 4x3 and 3x4, 4 + 1 + 3 = 8 wide, 4 high.
+  Image a(2, 1, 255, 0, 0), b(1, 2, 0, 0, 255);
+  Image r = framed_row({a, b}, 1);
+  ASSERT_EQ(r.width, 8);
+  ASSERT_EQ(r.height, 4);
+  const Rgb grey{kFrameGrey, kFrameGrey, kFrameGrey};
+  EXPECT_TRUE(is(r, 0, 0, grey));
+  EXPECT_TRUE(is(r, 3, 2, grey));      // first frame's bottom-right corner
+  EXPECT_TRUE(is(r, 1, 1, kOnColor));  // first panel
+  EXPECT_TRUE(is(r, 2, 1, kOnColor));
+  EXPECT_TRUE(is(r, 1, 3, kBackground));  // below the shorter panel
+  EXPECT_TRUE(is(r, 4, 0, kBackground));  // the gap
+  EXPECT_TRUE(is(r, 5, 0, grey));
+  EXPECT_TRUE(is(r, 6, 1, kOffColor));  // second panel
+  EXPECT_TRUE(is(r, 6, 2, kOffColor));
+  EXPECT_TRUE(is(r, 7, 3, grey));
+  EXPECT_EQ(framed_row({}).width, 0);
+}

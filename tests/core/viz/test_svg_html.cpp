@@ -145,6 +145,8 @@ TEST(HtmlReport, WellFormedWithTablesImagesAndSvg) {
   EXPECT_NE(html.find("src=\"frames/w0001.png\""), std::string::npos);
   EXPECT_NE(html.find("IoU &amp; detection rate"), std::string::npos);
   EXPECT_EQ(html.find("<?xml"), std::string::npos);
+  // The script that tells a headless browser (tests/browser) that every image loaded.
+  EXPECT_NE(html.find("setAttribute('data-images-ok'"), std::string::npos);
   std::string path = test::scratch_dir() + "/r.html";
   r.write(path);
   std::ifstream in(path);
