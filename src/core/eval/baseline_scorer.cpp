@@ -12,10 +12,11 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
   const EventStream& ev = seq.events;
   check_windows(windows_us, 1, "baseline '" + std::string(kAllEventsBaseline) + "'");
   const auto [n, t0, end] = scored_span(seq, opt.max_us);
-  SequenceScore r = empty_score(seq, windows_us);
+  SequenceScore r = empty_score(seq, windows_us, opt.kalman_us);
   if (ev.empty()) return r;
 
-  WindowScorer scorer(ev.sensor, windows_us);
+  WindowScorer scorer(ev.sensor, windows_us, kalman_lengths(ev.sensor, opt));
+  EventTally tally(t0, scorer.frame_us());  // every event predicted moving
   const int64_t F = scorer.frame_us();
   PredictionFrame f;
   f.width = ev.sensor.width;
@@ -40,6 +41,7 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
       if (ev.x[i] >= f.width || ev.y[i] >= f.height)
         fail(seq.name, "event " + std::to_string(i), "pixel outside the sensor");
       f.foreground[size_t(ev.y[i]) * size_t(f.width) + ev.x[i]] = 1;
+      tally.add(ev.t[i], ev.label[i] != 0, true);
     }
     r.events += e - b;
     if (opt.progress && !opt.progress(r.events)) {
@@ -52,6 +54,7 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
   scorer.finish(end);
   r.span_us = end - t0;
   r.scores = scorer.scores();
+  r.events_pr = tally.per_length(windows_us, end);
   return r;
 }
 

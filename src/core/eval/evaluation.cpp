@@ -28,6 +28,7 @@ EvalResults evaluate(const EvalOptions& opt) {
     ModelSpec m = load_model(p);
     if (opt.iir) m = with_iir_neurons(std::move(m), p);
     check_windows(opt.windows_us, time_step_us(m), p);
+    if (!opt.kalman_us.empty()) check_windows(opt.kalman_us, time_step_us(m), p + " (--kalman)");
     models.push_back(std::move(m));
   }
   if (!opt.baselines.empty()) check_windows(opt.windows_us, 1, "--windows");
@@ -57,6 +58,7 @@ EvalResults evaluate(const EvalOptions& opt) {
   r.working_directory = fs::current_path(ec).string();
   r.max_seconds = opt.max_seconds;
   r.windows_us = opt.windows_us;
+  r.kalman_us = opt.kalman_us;
   // One result per model, then per baseline; each sequence is loaded once for all of them.
   const size_t runs = models.size() + opt.baselines.size();
   std::vector<ModelResult> res(runs);
@@ -76,6 +78,8 @@ EvalResults evaluate(const EvalOptions& opt) {
   ProgressBar bar("eval", total * runs, "runs", opt.progress);
   SequenceScoreOptions so;
   so.threads = opt.threads;
+  so.kalman_us = opt.kalman_us;
+  r.label_tolerance_steps = so.label_tolerance_steps;
   so.max_us = opt.max_seconds > 0 ? int64_t(opt.max_seconds * 1e6 + 0.5) : 0;
   size_t done = 0;
   for (const auto& s : sources) {
