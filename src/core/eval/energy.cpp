@@ -19,6 +19,10 @@ namespace spikems {
 namespace fs = std::filesystem;
 
 std::vector<LayerShape> layer_shapes(const ModelSpec& model, int height, int width) {
+  if (height <= 0 || width <= 0)
+    fail(model.name, "",
+         "the input size " + std::to_string(width) + "x" + std::to_string(height) +
+             " is not positive");
   std::vector<LayerShape> out;
   int h = height, w = width;
   for (size_t k = 0; k < model.layers.size(); ++k) {

@@ -36,7 +36,7 @@ TEST(KalmanFilter, ConvergesToTheBlobsVelocityAndBeatsTheNoisyInput) {
     std::vector<std::pair<int, int>> bg;
     for (int i = 0; i < 20; ++i) bg.push_back({int(rng() % kW), int(rng() % kH)});
     for (int y = y0; y < y0 + kSide; ++y)
-      for (int x = x0; x < x0 + kSide; ++x) ev.push_back(t0 + 100, uint16_t(x), uint16_t(y), 1, 1);
+      for (int x = x0; x < x0 + kSide; ++x) ev.push_back(t0, uint16_t(x), uint16_t(y), 1, 1);
     for (auto [x, y] : bg) ev.push_back(t0 + 200, uint16_t(x), uint16_t(y), 0, 0);
     // The noisy detection: some blob pixels, 2 spurious pixels; every 4th window none at all.
     PredictionFrame f;
