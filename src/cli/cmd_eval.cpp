@@ -16,10 +16,10 @@ namespace {
 using namespace spikems;
 
 struct Args {
-  std::string windows = "20,100", split = "test", out;
+  std::string windows = "20,100", split = "test", out, kalman;
   std::vector<std::string> models, data, baselines;
   int threads = 1;
-  bool iir = false, quiet = false;
+  bool iir = false, quiet = false, gate_events = false;
   double max_seconds = 0;
 };
 
@@ -35,8 +35,10 @@ void run(const Args& a) {
   o.data = a.data;
   o.split = a.split;
   o.windows_us = parse_window_list_ms(a.windows);
+  if (!a.kalman.empty()) o.kalman_us = parse_window_list_ms(a.kalman);
   o.threads = a.threads;
   o.iir = a.iir;
+  o.gate_events = a.gate_events;
   o.max_seconds = a.max_seconds;
   o.progress = !a.quiet;
   o.command_line = cli::invoked_command();
@@ -65,7 +67,8 @@ void add(CLI::App& app) {
       "its first event) and is scored for every window length: P = pixels with output spikes "
       "at steps starting in the window, G = pixels with moving-object events; windows start at "
       "the first event, the partial last one is dropped, windows without moving objects are "
-      "skipped. See docs/evaluation.md.\n\n"
+      "skipped. Event precision and recall: the events the runtime labels moving against "
+      "their labels. See docs/evaluation.md.\n\n"
       "Examples:\n"
       "  spikems eval --model m.safetensors --data data/mod --out out/eval\n"
       "  spikems eval --model m.safetensors --data data/mod --split all --windows 1:25 --out o\n"
@@ -74,7 +77,9 @@ void add(CLI::App& app) {
       "  spikems eval --model m.safetensors --data data/mod --max-seconds 0.5   (a quick check)\n"
       "  spikems eval --model a.safetensors --model b.safetensors --baseline all-events "
       "--data data/mod --out o   (several models and the 'every event moving' baseline on the "
-      "same windows)");
+      "same windows)\n"
+      "  spikems eval --model m.safetensors --data data/mod --windows 1:25 --kalman 3 --out o   "
+      "(incremental prediction: filtered 3 ms windows beside the plain ones)");
   cmd->add_option("--model", a.models,
                   "Model file (.safetensors, spikems format); repeat to compare several "
                   "(default: the shipped model)");
@@ -90,12 +95,19 @@ void add(CLI::App& app) {
   cmd->add_option("--windows", a.windows,
                   "Window lengths in ms, comma-separated; ranges FROM:TO[:STEP] (1:25 = 1..25)")
       ->capture_default_str();
+  cmd->add_option("--kalman", a.kalman,
+                  "Also score these window lengths (ms, as --windows) with each window's "
+                  "prediction filtered by a constant-velocity Kalman filter per object: the "
+                  "'filtered' rows (e.g. --kalman 3)");
   cmd->add_option("--out", a.out,
                   "Folder for results.json, results.csv, results.md and report.html (with "
                   "plots/*.svg and windows/*.png)");
   cmd->add_option("--threads", a.threads,
                   "Threads inside the network (the layers of a step run in parallel)")
       ->check(CLI::Range(1, 256));
+  cmd->add_flag("--gate-events", a.gate_events,
+                "Count predictions only at pixels with input events in the window (P ∩ E, as "
+                "per-event labels do; ANN-2D models are gated by construction)");
   cmd->add_flag("--iir", a.iir,
                 "Run FIR layers with the exact recursions of the same neurons (faster; spikes "
                 "close to but not identical with the FIR model)");

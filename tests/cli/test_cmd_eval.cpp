@@ -2,6 +2,7 @@
 // result files and their schema; each kind of bad input stops with exit 1 and a clear message.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -195,6 +196,72 @@ TEST_F(EvalCli, SeveralModelsAndTheAllEventsBaseline) {
   EXPECT_NE(out.find("| " + model() + " "), std::string::npos) << out;
   EXPECT_NE(run_command(eval("--baseline none --data " + data()), &out), 0);
   EXPECT_NE(out.find("--baseline"), std::string::npos) << out;
+}
+
+// Events of the whole windows of a length (the partial last one dropped): all, and moving.
+std::pair<int64_t, int64_t> events_in_windows(const std::string& file, int64_t window_us) {
+  const LabelledSequence s = load_sequence(file);
+  const int64_t t0 = s.events.t_first();
+  const int64_t end = t0 + (s.events.t_last() + 1 - t0) / window_us * window_us;
+  int64_t all = 0, moving = 0;
+  for (size_t i = 0; i < s.events.size(); ++i)
+    if (s.events.t[i] < end) ++all, moving += s.events.label[i] != 0;
+  return {all, moving};
+}
+
+TEST_F(EvalCli, EventPrecisionRecallAndKalmanRows) {
+  const std::string o = dir_ + "/out_events";
+  std::string out;
+  // 26 window lengths (1..25 holds 20) from one run per sequence, plus the filtered 3 ms rows.
+  ASSERT_EQ(run_command(eval("--data " + data() +
+                             " --windows 1:25,20,100 --kalman 3 "
+                             "--baseline all-events --out " +
+                             o),
+                        &out),
+            0)
+      << out;
+  const auto j = nlohmann::json::parse(slurp(o + "/results.json"));
+  EXPECT_EQ(j["kalman_ms"], nlohmann::json({3.0}));
+  ASSERT_EQ(j["models"].size(), 2u);
+  for (const auto& m : j["models"]) {
+    const auto& d = m["datasets"][0];
+    ASSERT_EQ(d["windows"].size(), 26u + 1u);
+    const auto& k = d["windows"][26];
+    EXPECT_EQ(k["window_ms"], 3.0);
+    EXPECT_EQ(k["filter"], "kalman");
+    EXPECT_TRUE(k["event_precision"].is_null());
+    EXPECT_FALSE(k["iou_mean"].is_null());
+    EXPECT_TRUE(d["windows"][2]["filter"].is_null());
+    // The counts cover exactly the events of each length's whole windows.
+    const std::string seq = d["per_sequence"][0]["sequence"];
+    for (size_t i : {size_t(0), size_t(9), size_t(25)}) {
+      const auto& w = d["per_sequence"][0]["windows"][i];
+      const int64_t len = std::llround(w["window_ms"].get<double>() * 1000);
+      const auto [all, moving] = events_in_windows(seq, len);
+      const auto& c = w["event_counts"];
+      EXPECT_EQ(c["tp"].get<int64_t>() + c["fp"].get<int64_t>() + c["fn"].get<int64_t>() +
+                    c["tn"].get<int64_t>(),
+                all);
+      EXPECT_EQ(c["tp"].get<int64_t>() + c["fn"].get<int64_t>(), moving);
+      if (m["model"] == "baseline:all-events") {
+        // Every event predicted moving: recall 100 %, precision = the moving share.
+        EXPECT_EQ(c["tn"], 0);
+        EXPECT_DOUBLE_EQ(w["event_recall"].get<double>(), 100.0);
+        EXPECT_NEAR(w["event_precision"].get<double>(), 100.0 * double(moving) / double(all), 1e-9);
+      } else {
+        // Pass-all labels nearly every event moving (refractoriness may hide a few).
+        EXPECT_GT(w["event_recall"].get<double>(), 90.0);
+      }
+    }
+  }
+  const std::string csv = slurp(o + "/results.csv");
+  EXPECT_NE(csv.find(",filter,event_precision,event_recall,events_tp,"), std::string::npos);
+  EXPECT_NE(csv.find(",kalman,"), std::string::npos);
+  EXPECT_NE(out.find("| 3 filtered "), std::string::npos) << out;
+  EXPECT_NE(out.find("event P %"), std::string::npos) << out;
+  // A Kalman length must be whole steps too.
+  EXPECT_EQ(run_command(eval("--data " + data() + " --kalman 2.5 --out " + o + "x"), &out), 1);
+  EXPECT_NE(out.find("--kalman"), std::string::npos) << out;
 }
 
 TEST_F(EvalCli, BadInputStopsWithAClearMessage) {

@@ -120,19 +120,26 @@ TEST(Loss, BceAndVanRossumMatchTheirFormulasAndGradients) {
     torch::Tensor m = mask.clone();
     m[1].zero_();
     double sum = 0;
+    double sum_gated = 0;  // gate_events: p counts only at pixels with input events
     for (int64_t b = 0; b < 1; ++b) {
-      double inter = 0, uni = 0;
+      double inter = 0, uni = 0, uni_gated = 0;
       for (int64_t y = 0; y < H; ++y)
         for (int64_t x = 0; x < W; ++x) {
-          const double ev_fg =
-              (in.select(1, b).select(2, y).select(2, x).sum() * m[b][y][x]).item<double>();
+          const double ev = in.select(1, b).select(2, y).select(2, x).sum().item<double>();
+          const double ev_fg = ev * m[b][y][x].item<double>();
           const double g = ev_fg > 0 ? 1 : 0, p = 1 - std::exp(-P[b][y][x].item<double>() / 1.5);
           inter += p * g;
           uni += p + g - p * g;
+          uni_gated += ev > 0 ? p + g - p * g : 0;
         }
       sum += 1 - (inter + 1) / (uni + 1);
+      sum_gated += 1 - (inter + 1) / (uni_gated + 1);  // g = 1 only where events fell
     }
     EXPECT_NEAR(soft_iou_loss(out, in, m, o).item<double>(), sum, 1e-10);
+    LossOptions og = o;
+    og.gate_events = true;
+    EXPECT_NEAR(soft_iou_loss(out, in, m, og).item<double>(), sum_gated, 1e-10);
+    EXPECT_GT(std::abs(sum_gated - sum), 1e-6);  // the case has spikes where no event fell
     EXPECT_LT(spikems::test::finite_difference_error(
                   [&](const torch::Tensor& v) { return soft_iou_loss(v, in, m, o); }, out),
               1e-6);

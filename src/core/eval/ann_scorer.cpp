@@ -1,5 +1,6 @@
 #include "core/eval/ann_scorer.h"
 
+#include "core/eval/kalman_filter.h"
 #include "core/eval/window_scorer.h"
 #include "core/events/binning.h"
 #include "core/runtime/ann2d_network.h"
@@ -13,20 +14,32 @@ SequenceScore score_ann_sequence(const ModelSpec& model, const LabelledSequence&
                                  const SequenceScoreOptions& opt) {
   const Ann2dForward net(model);
   const int64_t step = time_step_us(model);
-  check_windows(windows_us, step, "model '" + model.name + "'");
+  const std::string who = "model '" + model.name + "'";
+  check_windows(windows_us, step, who);
+  if (!opt.kalman_us.empty()) check_windows(opt.kalman_us, step, who + " (--kalman)");
   const EventStream& ev = seq.events;
   const auto [n, t0, end] = scored_span(seq, opt.max_us);
-  SequenceScore r = empty_score(seq, windows_us);
+  SequenceScore r = empty_score(seq, windows_us, opt.kalman_us);
   if (ev.empty()) return r;
   const EventStream scored = ev.slice_index(0, n);
   BinningConfig bc;
   bc.step_us = step;
   const int H = ev.sensor.height, W = ev.sensor.width;
   const size_t plane = size_t(H) * size_t(W);
+  // Each length on its own (the ANN's prediction for a window is one frame of that window's
+  // events): the plain lengths, then the Kalman-filtered ones.
+  const size_t runs = windows_us.size() + opt.kalman_us.size();
   uint64_t done = 0;
-  for (size_t li = 0; li < windows_us.size(); ++li) {
-    const int64_t L = windows_us[li];
-    WindowScorer scorer(ev.sensor, {L});
+  for (size_t li = 0; li < runs; ++li) {
+    const bool plain = li < windows_us.size();
+    const int64_t L = plain ? windows_us[li] : opt.kalman_us[li - windows_us.size()];
+    std::vector<FilteredLength> filtered;
+    if (!plain) filtered.push_back({L, std::make_shared<KalmanWindowFilter>(W, H, opt.kalman)});
+    WindowScorer scorer(ev.sensor, {L}, filtered);
+    if (plain && L == opt.capture_window_us && !opt.capture_windows.empty())
+      scorer.capture(opt.capture_window_us, opt.capture_windows);
+    scorer.gate_by_events(opt.gate_events);
+    EventTally tally(t0, L);
     scorer.add_events(scored);
     PredictionFrame f;
     f.width = W;
@@ -45,15 +58,23 @@ SequenceScore score_ann_sequence(const ModelSpec& model, const LabelledSequence&
       f.index = int(k);
       scorer.add_frame(f);
       const auto [b, e] = scored.time_range(a, a + L);
+      if (plain)
+        for (size_t i = b; i < e; ++i)
+          tally.add(scored.t[i], scored.label[i] != 0,
+                    logit[size_t(scored.y[i]) * size_t(W) + scored.x[i]] > 0);
       done += e - b;
-      if (opt.progress && !opt.progress(done / windows_us.size())) {
+      if (opt.progress && !opt.progress(done / runs)) {
         r.complete = false;
-        r.scores.assign(windows_us.size(), WindowScores{});
+        r.scores.assign(r.scores.size(), WindowScores{});
         return r;
       }
     }
     scorer.finish(end);
-    r.scores[li] = scorer.scores().front();
+    r.scores[li] = scorer.scores().back();  // a filtered scorer holds plain, then filtered
+    if (plain) {
+      r.events_pr[li] = tally.per_length({L}, end).front();
+      if (L == opt.capture_window_us) r.captured = scorer.captured();
+    }
   }
   r.events = n;
   r.span_us = end - t0;

@@ -12,11 +12,13 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
   const EventStream& ev = seq.events;
   check_windows(windows_us, 1, "baseline '" + std::string(kAllEventsBaseline) + "'");
   const auto [n, t0, end] = scored_span(seq, opt.max_us);
-  SequenceScore r = empty_score(seq, windows_us);
+  SequenceScore r = empty_score(seq, windows_us, opt.kalman_us);
   if (ev.empty()) return r;
 
-  WindowScorer scorer(ev.sensor, windows_us);
+  WindowScorer scorer(ev.sensor, windows_us, kalman_lengths(ev.sensor, opt));
   if (!opt.capture_windows.empty()) scorer.capture(opt.capture_window_us, opt.capture_windows);
+  scorer.gate_by_events(opt.gate_events);
+  EventTally tally(t0, scorer.frame_us());  // every event predicted moving
   const int64_t F = scorer.frame_us();
   PredictionFrame f;
   f.width = ev.sensor.width;
@@ -41,6 +43,7 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
       if (ev.x[i] >= f.width || ev.y[i] >= f.height)
         fail(seq.name, "event " + std::to_string(i), "pixel outside the sensor");
       f.foreground[size_t(ev.y[i]) * size_t(f.width) + ev.x[i]] = 1;
+      tally.add(ev.t[i], ev.label[i] != 0, true);
     }
     r.events += e - b;
     if (opt.progress && !opt.progress(r.events)) {
@@ -54,6 +57,7 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
   r.span_us = end - t0;
   r.scores = scorer.scores();
   r.captured = scorer.captured();
+  r.events_pr = tally.per_length(windows_us, end);
   return r;
 }
 

@@ -63,6 +63,7 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
     ModelSpec m = load_model(p);
     if (opt.iir && m.type == ModelType::SNN) m = with_iir_neurons(std::move(m), p);
     check_windows(opt.windows_us, time_step_us(m), p);
+    if (!opt.kalman_us.empty()) check_windows(opt.kalman_us, time_step_us(m), p + " (--kalman)");
     models.push_back(std::move(m));
   }
   if (!opt.baselines.empty()) check_windows(opt.windows_us, 1, "--windows");
@@ -92,6 +93,7 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   r.working_directory = fs::current_path(ec).string();
   r.max_seconds = opt.max_seconds;
   r.windows_us = opt.windows_us;
+  r.kalman_us = opt.kalman_us;
   // One result per model, then per baseline; each sequence is loaded once for all of them.
   const size_t runs = models.size() + opt.baselines.size();
   std::vector<ModelResult> res(runs);
@@ -111,6 +113,10 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   ProgressBar bar("eval", total * runs, "runs", opt.progress);
   SequenceScoreOptions so;
   so.threads = opt.threads;
+  so.kalman_us = opt.kalman_us;
+  so.gate_events = opt.gate_events;
+  r.gate_events = opt.gate_events;
+  r.label_tolerance_steps = so.label_tolerance_steps;
   so.max_us = opt.max_seconds > 0 ? int64_t(opt.max_seconds * 1e6 + 0.5) : 0;
   size_t done = 0;
   const bool want_examples = examples && opt.example_windows > 0 && opt.example_sequences > 0;

@@ -22,8 +22,12 @@ struct EvalOptions {
   std::vector<std::string> data;  // simulator folders (manifest.json) or labelled files
   std::string split = "test";     // simulator folders: train, val, test or all
   std::vector<int64_t> windows_us = {20000, 100000};
-  int threads = 1;           // threads inside the network
-  bool iir = false;          // run FIR layers as their exact IIR recursions
+  // Window lengths also scored through the Kalman filter (kalman_filter.h): "filtered" rows.
+  std::vector<int64_t> kalman_us;
+  int threads = 1;   // threads inside the network
+  bool iir = false;  // run FIR layers as their exact IIR recursions
+  bool gate_events =
+      false;  // P ∩ E: predictions count only at pixels with events (window_scorer.h)
   double max_seconds = 0;    // > 0: only the first max_seconds of each sequence
   bool progress = false;     // progress bar on stderr
   std::string command_line;  // recorded in the results

@@ -42,6 +42,25 @@ class WindowScores {
   size_t detections_ = 0, skipped_ = 0;
 };
 
+// Per-event confusion counts: an event is predicted moving when the runtime labels it so
+// (EventLabeller: an output spike at its pixel within the label window) and truly moving when
+// its label is not 0.
+struct EventCounts {
+  uint64_t tp = 0, fp = 0, fn = 0, tn = 0;
+  void add(bool truth, bool predicted) {
+    (truth ? (predicted ? tp : fn) : (predicted ? fp : tn)) += 1;
+  }
+  EventCounts& operator+=(const EventCounts& o) {
+    tp += o.tp, fp += o.fp, fn += o.fn, tn += o.tn;
+    return *this;
+  }
+  uint64_t total() const { return tp + fp + fn + tn; }
+  bool has_precision() const { return tp + fp > 0; }  // some event predicted moving
+  bool has_recall() const { return tp + fn > 0; }     // some event truly moving
+  double precision() const { return has_precision() ? double(tp) / double(tp + fp) : 0; }
+  double recall() const { return has_recall() ? double(tp) / double(tp + fn) : 0; }
+};
+
 // Energy per BRIEF.md section 6 (Lee et al. 2020, 45 nm, 32-bit float).
 inline constexpr double kPicojoulePerAccumulate = 0.9;
 inline constexpr double kPicojoulePerMac = 4.6;

@@ -11,10 +11,13 @@ namespace spikems {
 
 namespace fs = std::filesystem;
 
-WindowSummary summarize(int64_t window_us, const std::vector<const WindowScores*>& parts) {
+WindowSummary summarize(int64_t window_us, const std::vector<const WindowScores*>& parts,
+                        const std::vector<const EventCounts*>& events) {
   WindowSummary s;
   s.window_us = window_us;
   s.sequences = parts.size();
+  s.has_events = !events.empty();
+  for (const EventCounts* e : events) s.events += *e;
   double sum = 0, detections = 0;
   for (const WindowScores* p : parts) {
     s.windows += p->windows();
@@ -41,23 +44,44 @@ DatasetResult dataset_result(std::string data, std::string split,
   d.split = std::move(split);
   if (sequences.empty()) return d;
   const auto& windows = sequences.front().windows_us;
+  const auto& kalman = sequences.front().kalman_us;
+  const size_t rows = windows.size() + kalman.size();
   for (const auto& s : sequences) {
-    if (s.windows_us != windows)
+    if (s.windows_us != windows || s.kalman_us != kalman || s.scores.size() != rows)
       fail(s.name, "", "scored with other window lengths than the dataset's other sequences");
+    if (!s.events_pr.empty() && s.events_pr.size() != windows.size())
+      fail(s.name, "", "event counts for other window lengths than its scores");
+  }
+  // Row i: window length i, or Kalman length i - windows.size().
+  auto row = [&](size_t i, const std::vector<const SequenceScore*>& seqs) {
+    std::vector<const WindowScores*> parts;
+    std::vector<const EventCounts*> events;
+    const bool plain = i < windows.size();
+    bool all_events = plain;
+    for (const SequenceScore* s : seqs) {
+      parts.push_back(&s->scores[i]);
+      if (plain && !s->events_pr.empty())
+        events.push_back(&s->events_pr[i]);
+      else
+        all_events = false;
+    }
+    WindowSummary w = summarize(plain ? windows[i] : kalman[i - windows.size()], parts,
+                                all_events ? events : std::vector<const EventCounts*>{});
+    w.kalman = !plain;
+    return w;
+  };
+  std::vector<const SequenceScore*> all;
+  for (const auto& s : sequences) {
     SequenceResult r;
     r.name = s.name;
     r.events = s.events;
     r.duration_s = double(s.span_us) * 1e-6;
-    for (size_t i = 0; i < windows.size(); ++i)
-      r.windows.push_back(summarize(windows[i], {&s.scores[i]}));
+    for (size_t i = 0; i < rows; ++i) r.windows.push_back(row(i, {&s}));
     d.events += s.events;
     d.sequences.push_back(std::move(r));
+    all.push_back(&s);
   }
-  for (size_t i = 0; i < windows.size(); ++i) {
-    std::vector<const WindowScores*> parts;
-    for (const auto& s : sequences) parts.push_back(&s.scores[i]);
-    d.windows.push_back(summarize(windows[i], parts));
-  }
+  for (size_t i = 0; i < rows; ++i) d.windows.push_back(row(i, all));
   return d;
 }
 
@@ -87,6 +111,17 @@ nlohmann::ordered_json row_json(const WindowSummary& w, bool with_sequences) {
   j["windows"] = w.windows;
   j["skipped_windows"] = w.skipped;
   if (with_sequences) j["sequences"] = w.sequences;
+  j["filter"] = w.kalman ? nlohmann::ordered_json("kalman") : nlohmann::ordered_json(nullptr);
+  const EventCounts& e = w.events;
+  auto pct = [](bool defined, double v) {
+    return defined ? nlohmann::ordered_json(100 * v) : nlohmann::ordered_json(nullptr);
+  };
+  j["event_precision"] = pct(w.has_events && e.has_precision(), e.precision());
+  j["event_recall"] = pct(w.has_events && e.has_recall(), e.recall());
+  if (w.has_events)
+    j["event_counts"] = {{"tp", e.tp}, {"fp", e.fp}, {"fn", e.fn}, {"tn", e.tn}};
+  else
+    j["event_counts"] = nullptr;
   return j;
 }
 
@@ -113,8 +148,17 @@ std::string csv_row(const std::string& level, const ModelResult& m, const Datase
                  fmt("%.4f", w.detection_rate)
            : std::string(",,");
   r += "," + std::to_string(w.windows) + "," + std::to_string(w.skipped) + "," +
-       std::to_string(w.sequences) + "\n";
-  return r;
+       std::to_string(w.sequences) + "," + (w.kalman ? "kalman" : "") + ",";
+  const EventCounts& e = w.events;
+  r += w.has_events && e.has_precision() ? fmt("%.4f", 100 * e.precision()) : "";
+  r += ",";
+  r += w.has_events && e.has_recall() ? fmt("%.4f", 100 * e.recall()) : "";
+  if (w.has_events)
+    r += "," + std::to_string(e.tp) + "," + std::to_string(e.fp) + "," + std::to_string(e.fn) +
+         "," + std::to_string(e.tn);
+  else
+    r += ",,,,";
+  return r + "\n";
 }
 
 // Display width of UTF-8 text (code points; the tables use ±, Δ and –).
@@ -145,8 +189,17 @@ std::string markdown_table(const std::vector<std::string>& head,
 }
 
 std::vector<std::string> score_cells(const WindowSummary& w) {
-  if (w.windows == 0) return {"–", "–"};
-  return {fmt("%.1f", w.iou_mean) + " ± " + fmt("%.1f", w.iou_std), fmt("%.1f", w.detection_rate)};
+  const EventCounts& e = w.events;
+  std::string p = w.has_events && e.has_precision() ? fmt("%.1f", 100 * e.precision()) : "–";
+  std::string rc = w.has_events && e.has_recall() ? fmt("%.1f", 100 * e.recall()) : "–";
+  if (w.windows == 0) return {"–", "–", p, rc};
+  return {fmt("%.1f", w.iou_mean) + " ± " + fmt("%.1f", w.iou_std), fmt("%.1f", w.detection_rate),
+          p, rc};
+}
+
+// "10", or "3 filtered" for a Kalman row.
+std::string window_cell(const WindowSummary& w) {
+  return fmt("%g", double(w.window_us) / 1000.0) + (w.kalman ? " filtered" : "");
 }
 
 std::string file_name(const std::string& path) {
@@ -166,18 +219,35 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
   nlohmann::ordered_json wins = nlohmann::ordered_json::array();
   for (int64_t w : r.windows_us) wins.push_back(window_ms(w));
   j["windows_ms"] = wins;
+  nlohmann::ordered_json kal = nlohmann::ordered_json::array();
+  for (int64_t w : r.kalman_us) kal.push_back(window_ms(w));
+  j["kalman_ms"] = kal;
   j["max_seconds"] =
       r.max_seconds > 0 ? nlohmann::ordered_json(r.max_seconds) : nlohmann::ordered_json(nullptr);
   j["interrupted"] = r.interrupted;
+  j["gate_events"] = r.gate_events;
   j["protocol"] = {
       {"window_start", "first event of each sequence"},
       {"partial_last_window", "dropped"},
-      {"prediction", "pixels with an output spike at a step whose start lies in the window"},
+      {"prediction", r.gate_events
+                         ? "pixels with input events in the window and an output spike at a step "
+                           "whose start lies in the window (gate_events)"
+                         : "pixels with an output spike at a step whose start lies in the window"},
       {"truth", "pixels with input events labelled moving (label != 0) in the window"},
       {"iou", "|P and G| / |P or G| per window; mean and population std over windows"},
       {"detection", "0-MMS: |P and G| > 0.5 |G| and |P and G| > |P - G|"},
       {"skipped", "windows whose G is empty are not scored, only counted"},
-      {"units", "iou and detection_rate in percent (0-100)"}};
+      {"units", "iou, detection_rate, event_precision and event_recall in percent (0-100)"},
+      {"events",
+       "an event is predicted moving when the runtime labels it so (an output spike at its "
+       "pixel within the label window: latency + " +
+           std::to_string(r.label_tolerance_steps) +
+           " steps), truly moving when its label != 0; counted over the whole windows of "
+           "each length (scored and skipped)"},
+      {"kalman",
+       "filter = kalman rows: the predictions of successive windows of that length through a "
+       "constant-velocity Kalman filter per blob; P = input-event pixels inside the filtered "
+       "boxes"}};
   nlohmann::ordered_json models = nlohmann::ordered_json::array();
   for (const auto& m : r.models) {
     nlohmann::ordered_json jm;
@@ -217,7 +287,8 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
 std::string results_csv(const EvalResults& r) {
   std::string out =
       "level,model,data,split,sequence,window_ms,iou_mean,iou_std,detection_rate,windows,"
-      "skipped_windows,sequences\n";
+      "skipped_windows,sequences,filter,event_precision,event_recall,events_tp,events_fp,"
+      "events_fn,events_tn\n";
   for (const auto& m : r.models)
     for (const auto& d : m.datasets) {
       for (const auto& w : d.windows) out += csv_row("dataset", m, d, "", w);
@@ -235,31 +306,30 @@ std::string model_label(const EvalResults& r, const ModelResult& m) {
 
 TextTable summary_table(const EvalResults& r) {
   TextTable t;
-  t.header = {"model",       "data",    "split",   "Δt ms",    "IoU % (mean ± std)",
-              "detection %", "windows", "skipped", "sequences"};
+  t.header = {"model",     "data",      "split",   "Δt ms",   "IoU % (mean ± std)", "detection %",
+              "event P %", "event R %", "windows", "skipped", "sequences"};
   for (const auto& m : r.models)
     for (const auto& d : m.datasets)
       for (const auto& w : d.windows) {
         auto sc = score_cells(w);
         t.rows.push_back({model_label(r, m), d.data, d.split.empty() ? "–" : d.split,
-                          fmt("%g", window_ms(w.window_us)), sc[0], sc[1],
-                          std::to_string(w.windows), std::to_string(w.skipped),
-                          std::to_string(w.sequences)});
+                          window_cell(w), sc[0], sc[1], sc[2], sc[3], std::to_string(w.windows),
+                          std::to_string(w.skipped), std::to_string(w.sequences)});
       }
   return t;
 }
 
 TextTable sequence_table(const EvalResults& r) {
   TextTable t;
-  t.header = {"model",       "sequence", "Δt ms",  "IoU % (mean ± std)",
-              "detection %", "windows",  "skipped"};
+  t.header = {"model",     "sequence", "Δt ms",  "IoU % (mean ± std)", "detection %", "event P %",
+              "event R %", "windows",  "skipped"};
   for (const auto& m : r.models)
     for (const auto& d : m.datasets)
       for (const auto& s : d.sequences)
         for (const auto& w : s.windows) {
           auto sc = score_cells(w);
-          t.rows.push_back({model_label(r, m), file_name(s.name), fmt("%g", window_ms(w.window_us)),
-                            sc[0], sc[1], std::to_string(w.windows), std::to_string(w.skipped)});
+          t.rows.push_back({model_label(r, m), file_name(s.name), window_cell(w), sc[0], sc[1],
+                            sc[2], sc[3], std::to_string(w.windows), std::to_string(w.skipped)});
         }
   return t;
 }
@@ -277,6 +347,9 @@ std::string results_markdown(const EvalResults& r) {
     out += "- model: `" + m.path + "` (" + m.name + ", time step " + fmt("%g", m.time_step_ms) +
            " ms" + (m.iir ? ", FIR layers run as IIR" : "") + ")\n";
   if (r.max_seconds > 0) out += "- first " + fmt("%g", r.max_seconds) + " s of each sequence\n";
+  if (r.gate_events)
+    out +=
+        "- gated by events: P = pixels with an output spike *and* an input event in the window\n";
   if (r.interrupted) out += "- **interrupted**: the sequences finished before Ctrl-C only\n";
   out +=
       "\nIoU of the pixels with output spikes (steps starting in the window) against the "

@@ -20,24 +20,30 @@ struct WindowSummary {
   size_t sequences = 0;
   // Over the scored windows, in percent; meaningless (and written as null) when windows == 0.
   double iou_mean = 0, iou_std = 0, detection_rate = 0;
+  bool kalman = false;  // a `--kalman` row: predictions filtered (kalman_filter.h)
+  // Events of the whole windows (scored and skipped), summed; none on Kalman rows.
+  bool has_events = false;
+  EventCounts events;
 };
 
 // Pools the windows of several sequences (one WindowScores each): IoU mean and population
 // standard deviation over all their scored windows, detections over all of them.
-WindowSummary summarize(int64_t window_us, const std::vector<const WindowScores*>& parts);
+// The event counts (optional: empty or one per part) are summed.
+WindowSummary summarize(int64_t window_us, const std::vector<const WindowScores*>& parts,
+                        const std::vector<const EventCounts*>& events = {});
 
 struct SequenceResult {
   std::string name;
   uint64_t events = 0;
-  double duration_s = 0;  // the span scored
-  std::vector<WindowSummary> windows;
+  double duration_s = 0;               // the span scored
+  std::vector<WindowSummary> windows;  // one per window length, then one per Kalman length
 };
 
 struct DatasetResult {
   std::string data;   // the --data path as given
   std::string split;  // "" for a single recording (no splits)
   uint64_t events = 0;
-  std::vector<WindowSummary> windows;  // pooled over the sequences
+  std::vector<WindowSummary> windows;  // pooled over the sequences (as SequenceResult)
   std::vector<SequenceResult> sequences;
 };
 
@@ -58,6 +64,9 @@ struct EvalResults {
   double max_seconds = 0;    // 0: whole sequences
   bool interrupted = false;  // Ctrl-C: the sequences finished so far
   std::vector<int64_t> windows_us;
+  std::vector<int64_t> kalman_us;  // --kalman lengths
+  int label_tolerance_steps = 3;   // the runtime's label window beyond its latency
+  bool gate_events = false;        // P ∩ E (EvalOptions::gate_events)
   std::vector<ModelResult> models;
 };
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/eval/kalman_filter.h"
 #include "core/eval/window_scorer.h"
 #include "core/runtime/segmenter.h"
 #include "core/util/error.h"
@@ -50,11 +51,14 @@ ScoredSpan scored_span(const LabelledSequence& seq, int64_t max_us) {
   return s;
 }
 
-SequenceScore empty_score(const LabelledSequence& seq, const std::vector<int64_t>& windows_us) {
+SequenceScore empty_score(const LabelledSequence& seq, const std::vector<int64_t>& windows_us,
+                          const std::vector<int64_t>& kalman_us) {
   SequenceScore r;
   r.name = seq.name;
   r.windows_us = windows_us;
-  r.scores.resize(windows_us.size());
+  r.kalman_us = kalman_us;
+  r.scores.resize(windows_us.size() + kalman_us.size());
+  r.events_pr.resize(windows_us.size());
   return r;
 }
 
@@ -79,26 +83,44 @@ std::vector<int64_t> example_windows(const LabelledSequence& seq, int64_t window
   return pick;
 }
 
+std::vector<FilteredLength> kalman_lengths(SensorSize sensor, const SequenceScoreOptions& opt) {
+  std::vector<FilteredLength> out;
+  for (int64_t w : opt.kalman_us)
+    out.push_back(
+        {w, std::make_shared<KalmanWindowFilter>(sensor.width, sensor.height, opt.kalman)});
+  return out;
+}
+
 SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq,
                              const std::vector<int64_t>& windows_us,
                              const SequenceScoreOptions& opt) {
   const EventStream& ev = seq.events;
   check_windows(windows_us, time_step_us(model), "model '" + model.name + "'");
+  if (!opt.kalman_us.empty())
+    check_windows(opt.kalman_us, time_step_us(model), "model '" + model.name + "' (--kalman)");
   const auto [n, t0, end] = scored_span(seq, opt.max_us);
-  SequenceScore r = empty_score(seq, windows_us);
+  SequenceScore r = empty_score(seq, windows_us, opt.kalman_us);
   if (ev.empty()) return r;
 
-  WindowScorer scorer(ev.sensor, windows_us);
+  WindowScorer scorer(ev.sensor, windows_us, kalman_lengths(ev.sensor, opt));
   if (!opt.capture_windows.empty()) scorer.capture(opt.capture_window_us, opt.capture_windows);
+  scorer.gate_by_events(opt.gate_events);
+  EventTally tally(t0, scorer.frame_us());
   SegmenterOptions so;
   so.mask_window_us = scorer.frame_us();
   so.threads = opt.threads;
   so.block_steps = std::max(1, opt.block_steps);
-  so.label_tolerance_steps = 0;  // labels are not used; a shorter run-out at the end
+  so.label_tolerance_steps = std::max(0, opt.label_tolerance_steps);
   Segmenter seg(model, ev.sensor, so, seq.name);
+  size_t labelled = 0;  // the runtime labels every event, in input order
   auto drain = [&] {
     for (const auto& f : seg.frames()) scorer.add_frame(f);
     seg.frames().clear();
+    const EventStream& l = seg.labelled();
+    if (labelled + l.size() > n)
+      fail(seq.name, "", "internal error: the runtime labelled more events than it was given");
+    for (size_t i = 0; i < l.size(); ++i, ++labelled)
+      tally.add(ev.t[labelled], ev.label[labelled] != 0, l.label[i] != 0);
     seg.labelled().clear();
   };
   // Chunks bound the frames waiting in the segmenter (one sensor-sized frame per frame_us).
@@ -117,10 +139,15 @@ SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq
   }
   seg.finish();
   drain();
+  if (labelled != n)
+    fail(seq.name, "",
+         "internal error: the runtime labelled " + std::to_string(labelled) + " of " +
+             std::to_string(n) + " events");
   scorer.finish(end);
   r.span_us = end - t0;
   r.scores = scorer.scores();
   r.captured = scorer.captured();
+  r.events_pr = tally.per_length(windows_us, end);
   return r;
 }
 

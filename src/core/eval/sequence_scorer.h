@@ -13,19 +13,29 @@
 #include "core/eval/metrics.h"
 #include "core/eval/window_scorer.h"
 #include "core/model/model_file.h"
+#include "core/runtime/kalman_tracker.h"
 
 namespace spikems {
 
 struct SequenceScoreOptions {
   int threads = 1;       // threads inside the network (Segmenter)
   int block_steps = 16;  // steps per network block: faster, outputs identical
-  int64_t max_us = 0;    // > 0: score only [first event, first event + max_us)
+  // The runtime's label window beyond its latency (SegmenterOptions; `spikems segment`'s
+  // default): events labelled moving by it count for the event precision and recall.
+  int label_tolerance_steps = 3;
+  // Kalman rows: window lengths whose predictions go through a KalmanWindowFilter
+  // (kalman_filter.h) before they are scored, with these tracker settings.
+  std::vector<int64_t> kalman_us;
+  TrackerOptions kalman;
+  int64_t max_us = 0;  // > 0: score only [first event, first event + max_us)
   // Called after each chunk with the events pushed so far; returning false stops the run
   // (the result then has complete = false and no scores).
   std::function<bool(uint64_t events_done)> progress;
   // Windows of length capture_window_us (one of the scored lengths) whose P and G are kept
   // (SequenceScore::captured), by index from the first event; see example_windows().
   int64_t capture_window_us = 0;
+  // P ∩ E (WindowScorer::gate_by_events): predictions count only at pixels with events.
+  bool gate_events = false;
   std::vector<int64_t> capture_windows;
 };
 
@@ -35,8 +45,12 @@ struct SequenceScore {
   int64_t span_us = 0;  // first event to the end of the data scored (partial window included)
   bool complete = true;
   std::vector<int64_t> windows_us;
-  std::vector<WindowScores> scores;      // one per window length
+  std::vector<int64_t> kalman_us;        // the Kalman-filtered lengths
+  std::vector<WindowScores> scores;      // one per window length, then one per kalman_us
   std::vector<CapturedWindow> captured;  // the windows asked for in capture_windows
+  // Per window length (windows_us): the events of its whole windows, predicted moving by the
+  // runtime's labels (model) or by the baseline's rule, against their labels.
+  std::vector<EventCounts> events_pr;
 };
 
 // The model's simulation step in microseconds (as the Segmenter takes it).
@@ -56,7 +70,10 @@ struct ScoredSpan {
 };
 ScoredSpan scored_span(const LabelledSequence& seq, int64_t max_us);
 // A score for `seq` with one empty WindowScores per length (complete; filled by the scorers).
-SequenceScore empty_score(const LabelledSequence& seq, const std::vector<int64_t>& windows_us);
+SequenceScore empty_score(const LabelledSequence& seq, const std::vector<int64_t>& windows_us,
+                          const std::vector<int64_t>& kalman_us = {});
+// One KalmanWindowFilter per Kalman length, for a WindowScorer of that sensor.
+std::vector<FilteredLength> kalman_lengths(SensorSize sensor, const SequenceScoreOptions& opt);
 
 // Up to `count` complete windows of length window_us to show from a sequence, evenly spaced
 // over the windows that hold moving-object events (a window with nothing to find says little),

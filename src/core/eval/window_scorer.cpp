@@ -17,18 +17,31 @@ int64_t frame_length_us(const std::vector<int64_t>& windows_us) {
   return g;
 }
 
-WindowScorer::WindowScorer(SensorSize sensor, std::vector<int64_t> windows_us)
+WindowScorer::WindowScorer(SensorSize sensor, std::vector<int64_t> windows_us,
+                           std::vector<FilteredLength> filtered)
     : sensor_(sensor), windows_(std::move(windows_us)) {
   if (!sensor_.known()) fail("window scorer", "", "the sensor size is unknown");
-  if (windows_.empty()) fail("window scorer", "", "no window length given");
-  frame_us_ = frame_length_us(windows_);
-  for (int64_t w : windows_) {
+  if (windows_.empty() && filtered.empty()) fail("window scorer", "", "no window length given");
+  std::vector<int64_t> all = windows_;
+  for (const auto& f : filtered) {
+    if (!f.filter) fail("window scorer", "", "a filtered length without a filter");
+    all.push_back(f.window_us);
+  }
+  frame_us_ = frame_length_us(all);
+  for (size_t i = 0; i < all.size(); ++i) {
     PerLength l;
-    l.window_us = w;
-    l.frames_per_window = w / frame_us_;
+    l.window_us = all[i];
+    l.frames_per_window = all[i] / frame_us_;
+    if (i >= windows_.size()) l.filter = filtered[i - windows_.size()].filter;
     lengths_.push_back(std::move(l));
   }
-  scores_.resize(windows_.size());
+  any_filter_ = !filtered.empty();
+  scores_.resize(all.size());
+}
+
+void WindowScorer::gate_by_events(bool on) {
+  if (have_origin_) fail("window scorer", "", "gate_by_events must come before the first events");
+  gate_ = on;
 }
 
 std::vector<uint8_t>& WindowScorer::mask_of(std::map<int64_t, std::vector<uint8_t>>& m, int64_t k) {
@@ -58,10 +71,14 @@ void WindowScorer::add_events(const EventStream& c) {
     const int64_t t = c.t[i];
     if (t < last_t_) fail_at_event("window scorer", events_seen_ + i, "time goes back");
     last_t_ = t;
-    if (c.label[i] == 0) continue;
+    if (c.label[i] == 0 && !any_filter_ && !gate_) continue;
     if (c.x[i] >= sensor_.width || c.y[i] >= sensor_.height)
       fail_at_event("window scorer", events_seen_ + i, "pixel outside the sensor");
     const size_t px = size_t(c.y[i]) * size_t(sensor_.width) + c.x[i];
+    if (any_filter_ || gate_)
+      for (PerLength& l : lengths_)
+        if (l.filter || gate_) mask_of(l.e, (t - origin_) / l.window_us)[px] = 1;
+    if (c.label[i] == 0) continue;
     for (PerLength& l : lengths_) {
       const int64_t k = (t - origin_) / l.window_us;
       if (k != l.g_index) {  // events are time-ordered: the window changes rarely
@@ -124,8 +141,23 @@ void WindowScorer::score(size_t i, int64_t k) {
   auto g = l.g.find(k);
   auto p = l.p.find(k);
   MaskCounts c;  // no G: skipped by WindowScores whatever was predicted
-  if (g != l.g.end()) {
-    if (p != l.p.end()) {
+  if (l.filter) {
+    // Every window goes through the filter (it keeps state), then P as it rewrote it.
+    if (zeros_.empty()) zeros_.assign(size_t(sensor_.width) * size_t(sensor_.height), 0);
+    filtered_p_ = p != l.p.end() ? p->second : zeros_;
+    auto e = l.e.find(k);
+    const int64_t t0 = origin_ + k * l.window_us;
+    l.filter->apply(t0, t0 + l.window_us, filtered_p_, e != l.e.end() ? e->second : zeros_);
+    if (g != l.g.end()) c = count_masks(filtered_p_, g->second);
+  } else if (g != l.g.end()) {
+    if (p != l.p.end() && gate_) {
+      auto e = l.e.find(k);
+      gated_p_.assign(p->second.size(), 0);
+      if (e != l.e.end())
+        for (size_t j = 0; j < gated_p_.size(); ++j) gated_p_[j] = p->second[j] & e->second[j];
+      p->second.swap(gated_p_);  // the captured window shows the gated P too
+      c = count_masks(p->second, g->second);
+    } else if (p != l.p.end()) {
       c = count_masks(p->second, g->second);
     } else {
       if (zeros_.empty()) zeros_.assign(g->second.size(), 0);
@@ -155,6 +187,7 @@ void WindowScorer::score(size_t i, int64_t k) {
   };
   release(l.p);
   release(l.g);
+  release(l.e);
   if (l.g_index <= k) {
     l.g_index = -1;
     l.g_mask = nullptr;
@@ -174,9 +207,34 @@ void WindowScorer::finish(int64_t end_us, bool keep_partial) {
     while (l.next < n) score(i, l.next++);
     l.p.clear();
     l.g.clear();
+    l.e.clear();
     l.g_mask = nullptr;
   }
   pool_.clear();
+}
+
+EventTally::EventTally(int64_t origin_us, int64_t frame_us) : origin_(origin_us), frame_(frame_us) {
+  if (frame_us <= 0) fail("event tally", "", "the frame length must be positive");
+}
+
+void EventTally::add(int64_t t, bool truth, bool predicted) {
+  if (t < origin_) fail("event tally", "", "an event before the first one");
+  const size_t j = size_t((t - origin_) / frame_);
+  if (j >= frames_.size()) frames_.resize(j + 1);
+  frames_[j].add(truth, predicted);
+}
+
+std::vector<EventCounts> EventTally::per_length(const std::vector<int64_t>& windows_us,
+                                                int64_t end_us) const {
+  std::vector<EventCounts> out(windows_us.size());
+  const int64_t span = end_us - origin_;
+  for (size_t i = 0; i < windows_us.size(); ++i) {
+    if (span <= 0) continue;
+    // Frames of the whole windows: the lengths are multiples of the frame.
+    const int64_t frames = span / windows_us[i] * windows_us[i] / frame_;
+    for (int64_t j = 0; j < frames && size_t(j) < frames_.size(); ++j) out[i] += frames_[size_t(j)];
+  }
+  return out;
 }
 
 std::vector<WindowScores> score_frames(const std::vector<PredictionFrame>& frames,

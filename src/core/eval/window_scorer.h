@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <vector>
 
 #include "core/eval/metrics.h"
@@ -32,10 +33,29 @@ struct CapturedWindow {
 // Greatest common divisor of positive window lengths.
 int64_t frame_length_us(const std::vector<int64_t>& windows_us);
 
+// Rewrites P of each window of one length before it is scored, called for every complete
+// window in time order (including windows without moving objects), so it may keep state: the
+// Kalman rows (`spikems eval --kalman`, kalman_filter.h).
+class WindowFilter {
+ public:
+  virtual ~WindowFilter() = default;
+  // Window [t0_us, t1_us): p = the network's prediction (to rewrite), events = pixels with
+  // any input event in the window; both row-major, sensor-sized.
+  virtual void apply(int64_t t0_us, int64_t t1_us, std::vector<uint8_t>& p,
+                     const std::vector<uint8_t>& events) = 0;
+};
+
+struct FilteredLength {
+  int64_t window_us = 0;
+  std::shared_ptr<WindowFilter> filter;
+};
+
 class WindowScorer {
  public:
-  // Throws Error when a length is not positive or the sensor size is unknown.
-  WindowScorer(SensorSize sensor, std::vector<int64_t> windows_us);
+  // Throws Error when a length is not positive or the sensor size is unknown. Filtered
+  // lengths are scored after the plain ones (scores() holds plain, then filtered).
+  WindowScorer(SensorSize sensor, std::vector<int64_t> windows_us,
+               std::vector<FilteredLength> filtered = {});
 
   int64_t frame_us() const { return frame_us_; }  // the frame length add_frame() expects
   const std::vector<int64_t>& windows_us() const { return windows_; }
@@ -54,7 +74,13 @@ class WindowScorer {
   // end_us - 1. Nothing is scored without events.
   void finish(int64_t end_us, bool keep_partial = false);
 
-  // One per length, in the order given.
+  // Event gating (call before the first events): P of the plain lengths becomes P ∩ E, E = the
+  // pixels with any input event in the window, i.e. a prediction counts only where events
+  // fell (as per-event labels do; the ANN-2D's P is gated by construction). Off by default:
+  // BRIEF.md's P is every pixel with an output spike.
+  void gate_by_events(bool on);
+
+  // One per length, in the order given: the plain lengths, then the filtered ones.
   const std::vector<WindowScores>& scores() const { return scores_; }
 
   // Keeps P and G of windows `indices` of length `window_us` (one of the lengths) when they
@@ -70,6 +96,8 @@ class WindowScorer {
     int64_t window_us = 0, frames_per_window = 0;
     int64_t next = 0;                              // the next window to score
     std::map<int64_t, std::vector<uint8_t>> p, g;  // windows with some P / G pixel
+    std::shared_ptr<WindowFilter> filter;          // filtered lengths only
+    std::map<int64_t, std::vector<uint8_t>> e;     // filtered lengths: pixels with any event
     int64_t g_index = -1;                          // cache: the window g_mask belongs to
     std::vector<uint8_t>* g_mask = nullptr;
   };
@@ -92,6 +120,26 @@ class WindowScorer {
   size_t capture_length_ = SIZE_MAX;        // index into lengths_, SIZE_MAX: none
   std::vector<int64_t> capture_indices_;    // sorted
   std::vector<CapturedWindow> captured_;
+  std::vector<uint8_t> filtered_p_;  // scratch: P handed to a filter
+  bool any_filter_ = false;
+  bool gate_ = false;             // P ∩ E for the plain lengths
+  std::vector<uint8_t> gated_p_;  // scratch
+};
+
+// Per-event confusion counts (metrics.h) of one sequence, kept per frame of frame_us from the
+// origin, then summed per window length over the windows scored (the partial last one
+// dropped, as WindowScorer does).
+class EventTally {
+ public:
+  EventTally(int64_t origin_us, int64_t frame_us);
+  // An event at t_us (>= origin), truly moving or not, predicted moving or not.
+  void add(int64_t t_us, bool truth, bool predicted);
+  // Counts over [origin, origin + n W) for each length W, n = whole windows before end_us.
+  std::vector<EventCounts> per_length(const std::vector<int64_t>& windows_us, int64_t end_us) const;
+
+ private:
+  int64_t origin_, frame_;
+  std::vector<EventCounts> frames_;
 };
 
 // Scores recorded or hand-made frames against labelled events in one go (see WindowScorer).

@@ -164,7 +164,7 @@ std::vector<TrackedBox> KalmanTracker::update(int64_t t, const std::vector<uint8
   }
   std::erase_if(tracks_, [&](const Track& tr) { return tr.missed > opt_.max_missed; });
   for (const auto& tr : tracks_)
-    if (tr.missed == 0 && tr.hits >= opt_.min_hits)
+    if ((tr.missed == 0 || opt_.report_coasting) && tr.hits >= opt_.min_hits)
       out.push_back({t, tr.id, tr.x[0] - tr.w / 2, tr.x[1] - tr.h / 2, tr.x[0] + tr.w / 2,
                      tr.x[1] + tr.h / 2, tr.x[2], tr.x[3]});
   return out;

@@ -39,6 +39,9 @@ struct TrackerOptions {
   int min_hits = 2;              // frames before a track is reported
   double process_noise = 500;    // acceleration noise (pixels / s^2), std
   double measurement_noise = 3;  // centroid noise (pixels), std
+  // Also report confirmed tracks unseen in this frame, at their predicted box (coasting for
+  // up to max_missed frames): incremental prediction fills a frame where the detector missed.
+  bool report_coasting = false;
 };
 
 class KalmanTracker {
@@ -48,6 +51,7 @@ class KalmanTracker {
   std::vector<TrackedBox> update(int64_t t_us, const std::vector<uint8_t>& mask, int width,
                                  int height);
   size_t live_tracks() const { return tracks_.size(); }
+  const TrackerOptions& options() const { return opt_; }
 
  private:
   struct Track {

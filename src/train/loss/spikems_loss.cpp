@@ -65,6 +65,7 @@ torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input
       out.size(1) == input.size(1) && out.size(3) == input.size(3) && out.size(4) == input.size(4),
       "loss: output and input must share batch and pixel grid (use align_to_input)");
   torch::Tensor p = -torch::expm1(-spike_projection(out, o.ts) / o.kappa);  // [B, H, W]
+  if (o.gate_events) p = p * (input.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(out.dtype());
   torch::Tensor y = (foreground_target(input.detach(), fg_mask).sum(std::vector<int64_t>{0, 2}) > 0)
                         .to(out.dtype());
   const std::vector<int64_t> px{1, 2};

@@ -34,6 +34,9 @@ struct LossOptions {
   // Class-balanced L_bce: the mean over foreground pixels plus the mean over background pixels
   // (each half weighted 1/2), so rare moving objects weigh as much as the background.
   bool balanced = false;
+  // Predictions count only where input events fell (eval --gate-events): the soft IoU's p is
+  // taken at pixels with input events only (L_bce with all_pixels = false already is).
+  bool gate_events = false;
   double ts = 1.0;   // time step (ms)
   double tau = 2.0;  // van Rossum kernel time constant (ms)
   TemporalKernel kernel = TemporalKernel::alpha(2.0, 1.0, 1.0);  // eps for L_spike

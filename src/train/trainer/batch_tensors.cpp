@@ -26,9 +26,13 @@ BatchTensors to_tensors(const std::vector<Sample>& samples, double ts, torch::De
 }
 
 std::vector<MaskCounts> window_counts(const torch::Tensor& out_window,
-                                      const torch::Tensor& fg_window) {
+                                      const torch::Tensor& fg_window,
+                                      const torch::Tensor& in_window) {
   torch::NoGradGuard ng;
-  auto P = (out_window.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(torch::kUInt8).cpu();
+  auto P = out_window.detach().sum(std::vector<int64_t>{0, 2}) > 0;
+  if (in_window.defined())
+    P = torch::logical_and(P, in_window.detach().sum(std::vector<int64_t>{0, 2}) > 0);
+  P = P.to(torch::kUInt8).cpu();
   auto G = (fg_window.detach().sum(0) > 0).to(torch::kUInt8).cpu();
   std::vector<MaskCounts> counts;
   for (int64_t b = 0; b < P.size(0); ++b) {

@@ -21,7 +21,10 @@ BatchTensors to_tensors(const std::vector<Sample>& samples, double ts, torch::De
 // Per sample, the mask counts of its window: P = pixels with any output spike in the window's
 // steps (out_window [Tw, B, C, H, W]), G = pixels with a foreground event in them (fg_window
 // [Tw, B, H, W]). Feed them to WindowScores::add.
+// With `gate_events`, P counts only pixels with input spikes in the window (in_window
+// [Tw, B, 2, H, W]; WindowScorer::gate_by_events).
 std::vector<MaskCounts> window_counts(const torch::Tensor& out_window,
-                                      const torch::Tensor& fg_window);
+                                      const torch::Tensor& fg_window,
+                                      const torch::Tensor& in_window = {});
 
 }  // namespace spikems::train

@@ -64,6 +64,8 @@ struct TrainConfig {
   // causal windows) on the first val_full_s seconds of every val sequence; 0: off. When on, the
   // best model is chosen by its IoU at val_full_window_ms: crop scores flatter (docs/results.md).
   double val_full_s = 0, val_full_window_ms = 20;
+  // Validation scores P ∩ E (predictions only at pixels with input events; `eval --gate-events`).
+  bool gate_events = false;
 
   nlohmann::json source;  // the resolved configuration (every key), as JSON
 };

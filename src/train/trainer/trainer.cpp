@@ -72,13 +72,14 @@ LossOptions loss_options(const TrainConfig& c, double ts) {
   o.all_pixels = c.all_pixels;
   o.pos_weight = c.pos_weight;
   o.balanced = c.balanced;
+  o.gate_events = c.gate_events;
   return o;
 }
 
 struct StepOutput {
   torch::Tensor total, bce, spike, iou, activity;
   std::vector<double> rates;
-  torch::Tensor out_window, fg_window;
+  torch::Tensor out_window, fg_window, in_window;
 };
 
 StepOutput forward_loss(SpikeMSNetwork& net, const BatchTensors& bt, const TrainConfig& c,
@@ -112,6 +113,7 @@ StepOutput forward_loss(SpikeMSNetwork& net, const BatchTensors& bt, const Train
   o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity;
   o.out_window = out;
   o.fg_window = fg;
+  o.in_window = in;
   return o;
 }
 
@@ -355,7 +357,9 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
                                val.begin() + std::min(val.size(), i + size_t(c.batch)));
       BatchTensors bt = to_tensors(part, ts, device);
       StepOutput o = net.step(bt, c, lo, ts);
-      for (const auto& m : window_counts(o.out_window, o.fg_window)) ws.add(m);
+      for (const auto& m :
+           window_counts(o.out_window, o.fg_window, c.gate_events ? o.in_window : torch::Tensor()))
+        ws.add(m);
       loss += o.total.item<double>();
       for (size_t k = 0; k < rates.size(); ++k) rates[k] += o.rates[k];
       ++batches;
@@ -388,6 +392,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
       eo.windows_us = {int64_t(std::llround(c.val_full_window_ms * 1000))};
       eo.threads = threads;
       eo.max_seconds = c.val_full_s;
+      eo.gate_events = c.gate_events;
       const EvalResults r = evaluate(eo);
       const WindowSummary& w = r.models.at(0).datasets.at(0).windows.at(0);
       iou_sum += w.iou_mean * double(w.windows);
@@ -447,7 +452,8 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
     opt.step();
     ++st.step;
     WindowScores ws;  // this batch (progress bar); train_ws: since the last log line
-    for (const auto& m : window_counts(o.out_window, o.fg_window)) {
+    for (const auto& m :
+         window_counts(o.out_window, o.fg_window, c.gate_events ? o.in_window : torch::Tensor())) {
       ws.add(m);
       train_ws.add(m);
     }
