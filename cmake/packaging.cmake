@@ -51,6 +51,11 @@ if(SPIKEMS_BUILD_TESTS)
     set_tests_properties(python_${t} PROPERTIES LABELS python SKIP_RETURN_CODE 77 TIMEOUT 600)
   endforeach()
 
+  # Installs into a temporary prefix and runs the installed spikems (about a second).
+  add_test(NAME install_tree COMMAND "${CMAKE_SOURCE_DIR}/tests/package/test_install.sh"
+                                     "${CMAKE_BINARY_DIR}")
+  set_tests_properties(install_tree PROPERTIES LABELS install TIMEOUT 300)
+
   # Builds the .deb (a whole Release build the first time), so it is "slow" and left out of
   # the default run: ctest --test-dir build -L package.
   add_test(NAME package_deb
