@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
   CLI::App app{
       "spikems: motion segmentation of event-camera streams with a spiking neural network"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "spikems 0.1.0");
+  app.set_version_flag("--version", "spikems " SPIKEMS_VERSION);  // project() version (CMake)
   auto& reg = command_registry();
   std::sort(reg.begin(), reg.end(), [](const CommandEntry& a, const CommandEntry& b) {
     return a.order != b.order ? a.order < b.order : a.name < b.name;
