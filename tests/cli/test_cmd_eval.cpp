@@ -192,6 +192,24 @@ TEST_F(EvalCli, SeveralModelsAndTheAllEventsBaseline) {
     EXPECT_NEAR(a["iou_mean"].get<double>(), c["iou_mean"].get<double>(), 5.0) << "window " << w;
   }
   EXPECT_NE(slurp(o + "/results.md").find("every event moving"), std::string::npos);
+  EXPECT_FALSE(j["gate_events"].get<bool>());
+  // Gated by events (P ∩ E): G ⊆ E, so P ∩ G stays and the union can only shrink: a model's
+  // IoU cannot fall, and the baseline (P = E) does not change.
+  ASSERT_EQ(run_command(eval("--model " + copy + " --baseline all-events --data " + data() +
+                             " --split all --windows 20,100 --gate-events --out " + o + "_gated"),
+                        &out),
+            0)
+      << out;
+  const auto jg = nlohmann::json::parse(slurp(o + "_gated/results.json"));
+  EXPECT_TRUE(jg["gate_events"].get<bool>());
+  for (size_t w = 0; w < 2; ++w) {
+    const auto& plain = j["models"][1]["datasets"][0]["windows"][w];
+    const auto& gated = jg["models"][1]["datasets"][0]["windows"][w];
+    EXPECT_GE(gated["iou_mean"].get<double>(), plain["iou_mean"].get<double>() - 1e-9);
+    EXPECT_EQ(jg["models"][2]["datasets"][0]["windows"][w]["iou_mean"],
+              j["models"][2]["datasets"][0]["windows"][w]["iou_mean"]);
+  }
+  EXPECT_NE(slurp(o + "_gated/results.md").find("gated by events"), std::string::npos);
   EXPECT_NE(out.find("| " + copy + " "), std::string::npos) << out;
   EXPECT_NE(out.find("| " + model() + " "), std::string::npos) << out;
   EXPECT_NE(run_command(eval("--baseline none --data " + data()), &out), 0);
