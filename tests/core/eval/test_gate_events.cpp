@@ -11,7 +11,7 @@ namespace {
 
 TEST(GateEvents, PredictionsWhereNoEventFellStopCounting) {
   EventStream e;
-  e.sensor = SensorSize{4, 1};  // pixels 0..3
+  e.sensor = SensorSize{4, 1};    // pixels 0..3
   e.push_back(0, 0, 0, 1, 1);     // window 0: moving event at px 0
   e.push_back(500, 1, 0, 1, 0);   //           background event at px 1
   e.push_back(2000, 3, 0, 1, 0);  // window 1 starts (so window 0 is complete)
