@@ -74,6 +74,27 @@ std::vector<nlohmann::json> read_log(const std::string& dir, const std::string& 
   return out;
 }
 
+// One short simulated sequence in `data` (made here), trained and validated on, without
+// augmentation: the loop's own learning, not generalisation, is under test.
+std::vector<std::string> one_sequence_overrides(const std::string& data, int steps) {
+  std::string out;
+  EXPECT_EQ(run_command(spikems_binary() +
+                            " simulate --preset tiny --sequences 1 --duration 0.2s --seed 5 "
+                            "--threads 1 --no-progress --out " +
+                            data,
+                        &out),
+            0)
+      << out;
+  auto ov = tiny_overrides(steps);
+  const std::string one = "[{path=\"" + data + "/seq_0000.h5\"}]";
+  ov.push_back("data.train=" + one);
+  ov.push_back("data.val=" + one);
+  for (const char* k :
+       {"flip_x", "flip_y", "polarity_swap", "drop_max", "threshold_jitter", "noise_hz_max"})
+    ov.push_back(std::string("sample.") + k + "=0.0");
+  return ov;
+}
+
 std::string config_path() {
   return test::source_dir() + "/configs/train/default.toml";
 }
@@ -83,22 +104,8 @@ TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
   // Scored on windows of its own training data: what this checks is that the whole loop
   // (data, loss, optimizer, validation, files) learns; generalisation is the default model's
   // job (docs/results.md). One short sequence, no augmentation, L_bce alone, a higher rate.
-  std::string out;
   const std::string data = scratch_dir() + "/data";
-  ASSERT_EQ(run_command(spikems_binary() +
-                            " simulate --preset tiny --sequences 1 --duration 0.2s --seed 5 "
-                            "--threads 1 --no-progress --out " +
-                            data,
-                        &out),
-            0)
-      << out;
-  auto ov = tiny_overrides(100);
-  const std::string one = "[{path=\"" + data + "/seq_0000.h5\"}]";
-  ov.push_back("data.train=" + one);
-  ov.push_back("data.val=" + one);
-  for (const char* k :
-       {"flip_x", "flip_y", "polarity_swap", "drop_max", "threshold_jitter", "noise_hz_max"})
-    ov.push_back(std::string("sample.") + k + "=0.0");
+  auto ov = one_sequence_overrides(data, 100);
   for (const char* k : {"sample.centred_fraction=1.0", "optim.lr=0.003", "loss.kind=bce",
                         "loss.floor_weight=0.0", "loss.activity_weight=0.0", "run.val_every=100",
                         "run.val_full_s=0.2", "run.val_full_window_ms=20", "sample.warmup_ms=30"})
@@ -287,21 +294,7 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   // `spikems eval`'s number for its model file.
   const std::string dir = scratch_dir() + "/ann";
   const std::string data = scratch_dir() + "/data";
-  std::string out;
-  ASSERT_EQ(run_command(spikems_binary() +
-                            " simulate --preset tiny --sequences 1 --duration 0.2s --seed 5 "
-                            "--threads 1 --no-progress --out " +
-                            data,
-                        &out),
-            0)
-      << out;
-  auto ov = tiny_overrides(100);
-  const std::string one = "[{path=\"" + data + "/seq_0000.h5\"}]";
-  ov.push_back("data.train=" + one);
-  ov.push_back("data.val=" + one);
-  for (const char* k :
-       {"flip_x", "flip_y", "polarity_swap", "drop_max", "threshold_jitter", "noise_hz_max"})
-    ov.push_back(std::string("sample.") + k + "=0.0");
+  auto ov = one_sequence_overrides(data, 100);
   for (const char* k : {"model.type=ann2d", "sample.warmup_ms=0", "sample.centred_fraction=1.0",
                         "loss.kind=bce", "loss.iou_weight=1.0", "optim.lr=0.003",
                         "run.val_every=100", "run.val_full_s=0.2", "run.val_full_window_ms=20"})

@@ -9,10 +9,13 @@ namespace spikems {
 
 namespace {
 
-// in [C_in, H, W] -> out [C_out, Ho, Wo], out = bias + conv(in).
-void conv(const LayerSpec& l, const std::vector<float>& in, int H, int W, std::vector<float>& out,
-          int Ho, int Wo) {
+// in [C_in, H, W] -> out [C_out, Ho, Wo] = bias + the layer's convolution of in. A convolution
+// gathers output (oy, ox) from input (oy s - p + ky, ox s - p + kx); a transposed one scatters
+// input (iy, ix) to output (iy s - p + ky, ix s - p + kx).
+void layer_forward(const LayerSpec& l, const std::vector<float>& in, int H, int W,
+                   std::vector<float>& out, int Ho, int Wo) {
   const int k = l.kernel, s = l.stride, p = l.padding;
+  const bool transposed = l.kind == LayerKind::ConvTranspose;
   const size_t po = size_t(Ho) * size_t(Wo), pi = size_t(H) * size_t(W);
   out.assign(size_t(l.out_channels) * po, 0.f);
   for (int co = 0; co < l.out_channels; ++co) {
@@ -22,44 +25,30 @@ void conv(const LayerSpec& l, const std::vector<float>& in, int H, int W, std::v
       const float* x = in.data() + size_t(ci) * pi;
       for (int ky = 0; ky < k; ++ky)
         for (int kx = 0; kx < k; ++kx) {
-          const float w = l.weight[((size_t(co) * l.in_channels + ci) * k + ky) * k + kx];
-          // Output columns whose input column ox*s - p + kx lies inside [0, W).
-          const int ox0 = std::max(0, (p - kx + s - 1) / s);
-          const int ox1 = std::min(Wo, (W - 1 + p - kx) / s + 1);
-          for (int oy = 0; oy < Ho; ++oy) {
-            const int iy = oy * s - p + ky;
-            if (iy < 0 || iy >= H) continue;
-            const float* xr = x + size_t(iy) * W;
-            float* orow = o + size_t(oy) * Wo;
-            for (int ox = ox0; ox < ox1; ++ox) orow[ox] += w * xr[ox * s - p + kx];
-          }
-        }
-    }
-  }
-}
-
-// Transposed: every input value scatters into a k x k patch at (i*s - p + ky, j*s - p + kx).
-void conv_transpose(const LayerSpec& l, const std::vector<float>& in, int H, int W,
-                    std::vector<float>& out, int Ho, int Wo) {
-  const int k = l.kernel, s = l.stride, p = l.padding;
-  const size_t po = size_t(Ho) * size_t(Wo), pi = size_t(H) * size_t(W);
-  out.assign(size_t(l.out_channels) * po, 0.f);
-  for (int co = 0; co < l.out_channels; ++co) {
-    float* o = out.data() + size_t(co) * po;
-    std::fill(o, o + po, l.bias[size_t(co)]);
-    for (int ci = 0; ci < l.in_channels; ++ci) {
-      const float* x = in.data() + size_t(ci) * pi;
-      for (int ky = 0; ky < k; ++ky)
-        for (int kx = 0; kx < k; ++kx) {
-          const float w = l.weight[((size_t(ci) * l.out_channels + co) * k + ky) * k + kx];
-          for (int iy = 0; iy < H; ++iy) {
-            const int oy = iy * s - p + ky;
-            if (oy < 0 || oy >= Ho) continue;
-            const float* xr = x + size_t(iy) * W;
-            float* orow = o + size_t(oy) * Wo;
-            for (int ix = 0; ix < W; ++ix) {
-              const int ox = ix * s - p + kx;
-              if (ox >= 0 && ox < Wo) orow[ox] += w * xr[ix];
+          const size_t pair =
+              transposed ? size_t(ci) * l.out_channels + co : size_t(co) * l.in_channels + ci;
+          const float w = l.weight[(pair * k + ky) * k + kx];
+          if (!transposed) {
+            // Output columns whose input column ox*s - p + kx lies inside [0, W).
+            const int ox0 = std::max(0, (p - kx + s - 1) / s);
+            const int ox1 = std::min(Wo, (W - 1 + p - kx) / s + 1);
+            for (int oy = 0; oy < Ho; ++oy) {
+              const int iy = oy * s - p + ky;
+              if (iy < 0 || iy >= H) continue;
+              const float* xr = x + size_t(iy) * W;
+              float* orow = o + size_t(oy) * Wo;
+              for (int ox = ox0; ox < ox1; ++ox) orow[ox] += w * xr[ox * s - p + kx];
+            }
+          } else {
+            for (int iy = 0; iy < H; ++iy) {
+              const int oy = iy * s - p + ky;
+              if (oy < 0 || oy >= Ho) continue;
+              const float* xr = x + size_t(iy) * W;
+              float* orow = o + size_t(oy) * Wo;
+              for (int ix = 0; ix < W; ++ix) {
+                const int ox = ix * s - p + kx;
+                if (ox >= 0 && ox < Wo) orow[ox] += w * xr[ix];
+              }
             }
           }
         }
@@ -84,10 +73,7 @@ std::vector<float> Ann2dForward::forward(const std::vector<float>& features, int
     const LayerSpec& l = model_.layers[k];
     const int ho = l.output_size(h), wo = l.output_size(w);
     if (ho < 1 || wo < 1) fail(model_.name, "", "input too small for the network");
-    if (l.kind == LayerKind::Conv)
-      conv(l, x, h, w, y, ho, wo);
-    else
-      conv_transpose(l, x, h, w, y, ho, wo);
+    layer_forward(l, x, h, w, y, ho, wo);
     if (k + 1 < model_.layers.size())
       for (float& v : y) v = std::max(v, 0.f);
     std::swap(x, y);
