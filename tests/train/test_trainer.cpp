@@ -95,6 +95,23 @@ std::vector<std::string> one_sequence_overrides(const std::string& data, int ste
   return ov;
 }
 
+std::string config_path();
+
+// A run of the default config with `ov`, in `dir`, without a progress bar.
+TrainResult train_quietly(const std::vector<std::string>& ov, const std::string& dir) {
+  TrainRunOptions ro;
+  ro.out_dir = dir;
+  ro.progress = false;
+  return run_training(load_train_config(config_path(), ov), ro);
+}
+
+// The mean loss of the train log lines [from, to).
+double mean_loss(const std::vector<nlohmann::json>& train, size_t from, size_t to) {
+  double sum = 0;
+  for (size_t i = from; i < to; ++i) sum += train.at(i)["loss"].get<double>();
+  return sum / double(to - from);
+}
+
 std::string config_path() {
   return test::source_dir() + "/configs/train/default.toml";
 }
@@ -110,20 +127,12 @@ TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
                         "loss.floor_weight=0.0", "loss.activity_weight=0.0", "run.val_every=100",
                         "run.val_full_s=0.2", "run.val_full_window_ms=20", "sample.warmup_ms=30"})
     ov.push_back(k);
-  TrainConfig cfg = load_train_config(config_path(), ov);
-  TrainRunOptions ro;
-  ro.out_dir = dir;
-  ro.progress = false;
-  TrainResult r = run_training(cfg, ro);
+  TrainResult r = train_quietly(ov, dir);
   EXPECT_EQ(r.steps, 100);
   auto train = read_log(dir, "train");
   ASSERT_EQ(train.size(), 100u);
-  double first = 0, last = 0;
-  for (int i = 0; i < 10; ++i) {
-    first += train[size_t(i)]["loss"].get<double>();
-    last += train[size_t(90 + i)]["loss"].get<double>();
-  }
-  EXPECT_LT(last, 0.7 * first) << "mean loss of steps 1-10 vs 91-100";
+  EXPECT_LT(mean_loss(train, 90, 100), 0.7 * mean_loss(train, 0, 10))
+      << "mean loss of steps 1-10 vs 91-100";
   auto val = read_log(dir, "val");
   ASSERT_EQ(val.size(), 2u);  // before training (step 0) and at the end
   EXPECT_EQ(val[0]["step"], 0);
@@ -299,19 +308,11 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
                         "loss.kind=bce", "loss.iou_weight=1.0", "optim.lr=0.003",
                         "run.val_every=100", "run.val_full_s=0.2", "run.val_full_window_ms=20"})
     ov.push_back(k);
-  TrainConfig cfg = load_train_config(config_path(), ov);
-  TrainRunOptions ro;
-  ro.out_dir = dir;
-  ro.progress = false;
-  EXPECT_EQ(run_training(cfg, ro).steps, 100);
+  EXPECT_EQ(train_quietly(ov, dir).steps, 100);
   auto train = read_log(dir, "train");
   ASSERT_EQ(train.size(), 100u);
-  double first = 0, last = 0;
-  for (int i = 0; i < 10; ++i) {
-    first += train[size_t(i)]["loss"].get<double>();
-    last += train[size_t(90 + i)]["loss"].get<double>();
-  }
-  EXPECT_LT(last, 0.7 * first) << "mean loss of steps 1-10 vs 91-100";
+  EXPECT_LT(mean_loss(train, 90, 100), 0.7 * mean_loss(train, 0, 10))
+      << "mean loss of steps 1-10 vs 91-100";
   auto val = read_log(dir, "val");
   ASSERT_EQ(val.size(), 2u);
   EXPECT_GT(val[1]["iou"].get<double>(), val[0]["iou"].get<double>() + 10.0);

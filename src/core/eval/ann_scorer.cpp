@@ -47,12 +47,12 @@ SequenceScore score_ann_sequence(const ModelSpec& model, const LabelledSequence&
     for (int64_t k = 0; t0 + (k + 1) * L <= end; ++k) {
       const int64_t a = t0 + k * L;
       const SpikeTensor s = bin_events(scored, a, L, bc);
-      const std::vector<float> logit = net.forward(ann_features(s.data.data(), s.T, H, W), H, W);
+      const std::vector<float> feat = ann_features(s.data.data(), s.T, H, W);
+      const std::vector<float> logit = net.forward(feat, H, W);
+      // Channels 0 and 1 are log(1 + spike count): > 0 where the pixel had events.
       f.foreground.assign(plane, 0);
-      for (int t = 0; t < s.T; ++t)
-        for (size_t i = 0; i < 2 * plane; ++i)
-          if (s.data[size_t(t) * 2 * plane + i] && logit[i % plane] > 0)
-            f.foreground[i % plane] = 1;
+      for (size_t i = 0; i < plane; ++i)
+        f.foreground[i] = (feat[i] > 0 || feat[plane + i] > 0) && logit[i] > 0;
       f.t0_us = a;
       f.t1_us = a + L;
       f.index = int(k);

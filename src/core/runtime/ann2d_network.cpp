@@ -86,17 +86,4 @@ std::vector<float> Ann2dForward::forward(const std::vector<float>& features, int
   return out;
 }
 
-int64_t Ann2dForward::macs(int H, int W) const {
-  int64_t total = 0;
-  int h = H, w = W;
-  for (const auto& l : model_.layers) {
-    const int ho = l.output_size(h), wo = l.output_size(w);
-    const int64_t per = int64_t(l.in_channels) * l.out_channels * l.kernel * l.kernel;
-    total += per * (l.kind == LayerKind::Conv ? int64_t(ho) * wo : int64_t(h) * w);
-    h = ho;
-    w = wo;
-  }
-  return total;
-}
-
 }  // namespace spikems

@@ -21,10 +21,6 @@ class Ann2dForward {
   // top-left corner (cropped where larger, zero logits where smaller), as the SNN's output.
   std::vector<float> forward(const std::vector<float>& features, int H, int W) const;
 
-  // Multiply-accumulates of one forward pass at H x W (each output value of a convolution
-  // costs C_in k^2; each input value of a transposed one scatters C_out k^2, borders included).
-  int64_t macs(int H, int W) const;
-
   const ModelSpec& model() const { return model_; }
 
  private:

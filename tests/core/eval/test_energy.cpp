@@ -75,6 +75,15 @@ TEST(Energy, TransposedConvSynOpsAndMacs) {
   EXPECT_THROW(layer_shapes(one_layer(LayerKind::Conv, 2, 3), 0, 5), Error);
 }
 
+TEST(Energy, MacsOfTheWholeAnn2dByHand) {
+  // The ANN-2D (model_file.h) at 16 x 24: convs 4->16 at 8x12, 16->32 at 4x6, 32->64 at 2x3
+  // (output positions); convTs from 2x3 (64->32), 4x6 (32->16), 8x12 (16->1) (input positions).
+  uint64_t total = 0;
+  for (const auto& s : layer_shapes(ann2d_architecture(), 16, 24)) total += ann_macs(s);
+  EXPECT_EQ(total, 9u * (96 * 4 * 16 + 24 * 16 * 32 + 6 * 32 * 64 + 6 * 64 * 32 + 24 * 32 * 16 +
+                         96 * 16 * 1));
+}
+
 TEST(Energy, PerSampleValuesAndEnergy) {
   const ModelSpec m = one_layer(LayerKind::Conv, 2, 3);
   StreamingNetwork net(m, 5, 5);
