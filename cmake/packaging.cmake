@@ -56,6 +56,10 @@ if(SPIKEMS_BUILD_TESTS)
                                      "${CMAKE_BINARY_DIR}")
   set_tests_properties(install_tree PROPERTIES LABELS install TIMEOUT 300)
 
+  # Packs the build dependencies, moves the folder and configures spikems from it (~10 s).
+  add_test(NAME pack_build_deps COMMAND "${CMAKE_SOURCE_DIR}/tests/package/test_pack_build_deps.sh")
+  set_tests_properties(pack_build_deps PROPERTIES LABELS install TIMEOUT 300)
+
   # Builds the .deb (a whole Release build the first time), so it is "slow" and left out of
   # the default run: ctest --test-dir build -L package.
   add_test(NAME package_deb

@@ -29,12 +29,12 @@ class PspFunction : public torch::autograd::Function<PspFunction> {
                                double ts) {
     save_kernel(ctx, "k", k);
     ctx->saved_data["ts"] = ts;
-    return apply_temporal_kernel_cpu(x2d, k, ts, false);
+    return apply_temporal_kernel_fused(x2d, k, ts, false);
   }
   static variable_list backward(AutogradContext* ctx, variable_list g) {
     TemporalKernel k = load_kernel(ctx, "k");
     double ts = ctx->saved_data["ts"].toDouble();
-    return {apply_temporal_kernel_cpu(g[0], k, ts, true), torch::Tensor(), torch::Tensor()};
+    return {apply_temporal_kernel_fused(g[0], k, ts, true), torch::Tensor(), torch::Tensor()};
   }
 };
 
@@ -42,7 +42,7 @@ class PspFunction : public torch::autograd::Function<PspFunction> {
 
 torch::Tensor psp(const torch::Tensor& x, const TemporalKernel& eps, double ts) {
   TORCH_CHECK(x.dim() >= 1, "psp: input needs a leading time axis");
-  if (!x.device().is_cpu() || x.numel() == 0) return apply_temporal_kernel_ops(x, eps, ts, false);
+  if (!fused_temporal_kernel_for(x, eps)) return apply_temporal_kernel_ops(x, eps, ts, false);
   const int64_t T = x.size(0);
   torch::Tensor y = PspFunction::apply(x.reshape({T, -1}), eps, ts);
   return y.view(x.sizes());

@@ -1,6 +1,7 @@
 // Post-synaptic potential: a = Ts * (eps * s) along time for every neuron of a time-major
-// tensor [T, ...]. On CPU a custom autograd function with a vectorised kernel (the backward is
-// the same filter run backwards in time); on other devices plain tensor operations.
+// tensor [T, ...]. A custom autograd function around the fused kernel of the device (CPU; CUDA
+// where built; the backward is the same filter run backwards in time), else plain tensor
+// operations (other devices, or NeuronKernels::Ops).
 #pragma once
 
 #include <torch/torch.h>

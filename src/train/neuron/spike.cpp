@@ -5,6 +5,8 @@
 
 #include <cmath>
 
+#include "train/neuron/kernel_choice.h"
+#include "train/neuron/neuron_cuda_torch.h"
 #include "train/neuron/psp.h"
 
 namespace spikems::train {
@@ -16,12 +18,13 @@ using Form = TemporalKernel::Form;
 namespace {
 constexpr int64_t kGrain = 512;
 
-double pdf_scale(const SpikeParams& p) {
-  const double th = double(p.theta);
-  return p.surrogate == SurrogateForm::Slayer ? p.scale_rho / (p.tau_rho * th) : p.scale_rho / th;
-}
-double pdf_tau(const SpikeParams& p) {
-  return p.tau_rho * double(p.theta);
+// Which fused kernel takes a tensor: none (tensor ops), the CPU one or the CUDA one.
+enum class Fused { None, Cpu, Cuda };
+Fused fused_for(const torch::Tensor& t, const SpikeParams& p, bool use_fused) {
+  if (!use_fused || t.numel() == 0) return Fused::None;
+  if (t.device().is_cpu()) return Fused::Cpu;
+  if (t.is_cuda() && cuda_kernels_built() && cuda_kernel_fits(p.refractory)) return Fused::Cuda;
+  return Fused::None;
 }
 
 // ---- CPU kernels: time loop outside, neurons of one chunk contiguous inside ----
@@ -76,7 +79,7 @@ void forward_cpu(S* ur, S* s, int64_t T, int64_t N, const SpikeParams& p) {
 template <typename S>
 void backward_exact_cpu(const S* gs, const S* ur, S* gu, int64_t T, int64_t N,
                         const SpikeParams& p) {
-  const S theta = S(p.theta), c = S(pdf_scale(p)), inv_tau = S(1.0 / pdf_tau(p)), ts = S(p.ts);
+  const S theta = S(p.theta), c = S(p.pdf_scale()), inv_tau = S(1.0 / p.pdf_tau()), ts = S(p.ts);
   const auto& k = p.refractory;
   at::parallel_for(0, N, kGrain, [&](int64_t n0, int64_t n1) {
     const int64_t len = n1 - n0;
@@ -168,7 +171,7 @@ torch::Tensor backward_exact_ops(const torch::Tensor& gs, const torch::Tensor& u
 class SpikeFunction : public torch::autograd::Function<SpikeFunction> {
  public:
   static torch::Tensor forward(AutogradContext* ctx, torch::Tensor u2d, const SpikeParams& p) {
-    auto [s, ur] = spike_forward(u2d, p, u2d.device().is_cpu());
+    auto [s, ur] = spike_forward(u2d, p, neuron_kernels() == NeuronKernels::Fused);
     ctx->save_for_backward({ur});
     save_kernel(ctx, "ref", p.refractory);
     ctx->saved_data["theta"] = double(p.theta);
@@ -189,7 +192,7 @@ class SpikeFunction : public torch::autograd::Function<SpikeFunction> {
     p.scale_rho = ctx->saved_data["scale_rho"].toDouble();
     p.gradient = SpikeGradient(ctx->saved_data["gradient"].toInt());
     torch::Tensor ur = ctx->get_saved_variables()[0];
-    return {spike_backward(g[0], ur, p, ur.device().is_cpu()), torch::Tensor()};
+    return {spike_backward(g[0], ur, p, neuron_kernels() == NeuronKernels::Fused), torch::Tensor()};
   }
 };
 
@@ -207,14 +210,25 @@ SpikeParams SpikeParams::from_layer(const LayerSpec& l, double ts, SpikeGradient
   return p;
 }
 
+double SpikeParams::pdf_scale() const {
+  const double th = double(theta);
+  return surrogate == SurrogateForm::Slayer ? scale_rho / (tau_rho * th) : scale_rho / th;
+}
+
+double SpikeParams::pdf_tau() const {
+  return tau_rho * double(theta);
+}
+
 torch::Tensor surrogate_pdf(const torch::Tensor& ur, const SpikeParams& p) {
-  return pdf_scale(p) * torch::exp(-torch::abs(ur - double(p.theta)) / pdf_tau(p));
+  return p.pdf_scale() * torch::exp(-torch::abs(ur - double(p.theta)) / p.pdf_tau());
 }
 
 std::pair<torch::Tensor, torch::Tensor> spike_forward(const torch::Tensor& u_in,
-                                                      const SpikeParams& p, bool use_cpu_kernel) {
+                                                      const SpikeParams& p, bool use_fused) {
   torch::Tensor u = u_in.contiguous();
-  if (!use_cpu_kernel || !u.device().is_cpu() || u.numel() == 0) return forward_ops(u, p);
+  const Fused f = fused_for(u, p, use_fused);
+  if (f == Fused::None) return forward_ops(u, p);
+  if (f == Fused::Cuda) return cuda_spike_forward(u, p);
   const int64_t T = u.size(0), N = u.numel() / T;
   torch::Tensor ur = u.clone(), s = torch::empty_like(u);
   AT_DISPATCH_FLOATING_TYPES(u.scalar_type(), "spike_forward", [&] {
@@ -224,11 +238,12 @@ std::pair<torch::Tensor, torch::Tensor> spike_forward(const torch::Tensor& u_in,
 }
 
 torch::Tensor spike_backward(const torch::Tensor& gs_in, const torch::Tensor& ur_in,
-                             const SpikeParams& p, bool use_cpu_kernel) {
+                             const SpikeParams& p, bool use_fused) {
+  const Fused f = fused_for(gs_in, p, use_fused);
+  if (f == Fused::Cuda) return cuda_spike_backward(gs_in.contiguous(), ur_in.contiguous(), p);
   if (p.gradient == SpikeGradient::Slayer) return surrogate_pdf(ur_in, p) * gs_in;
   torch::Tensor gs = gs_in.contiguous(), ur = ur_in.contiguous();
-  if (!use_cpu_kernel || !gs.device().is_cpu() || gs.numel() == 0)
-    return backward_exact_ops(gs, ur, p);
+  if (f == Fused::None) return backward_exact_ops(gs, ur, p);
   const int64_t T = gs.size(0), N = gs.numel() / T;
   torch::Tensor gu = torch::empty_like(gs);
   AT_DISPATCH_FLOATING_TYPES(gs.scalar_type(), "spike_backward", [&] {

@@ -29,18 +29,22 @@ struct SpikeParams {
   SpikeGradient gradient = SpikeGradient::Slayer;
 
   static SpikeParams from_layer(const LayerSpec& l, double ts, SpikeGradient g);
+  // The surrogate is rho(u~) = pdf_scale() exp(-|u~ - theta| / pdf_tau()).
+  double pdf_scale() const;
+  double pdf_tau() const;
 };
 
 // u: [T, ...] synaptic potential. Returns spikes (same shape, values 0 and 1/Ts).
 torch::Tensor spike(const torch::Tensor& u, const SpikeParams& p);
 
 // The same, also returning the potential after the refractory (u~). No autograd.
-// `use_cpu_kernel` = false forces the per-step tensor-op path that other devices use.
+// `use_fused` = true takes the fused kernel of the tensor's device (CPU; CUDA where built),
+// false (or a device without one) the per-step tensor-op path.
 std::pair<torch::Tensor, torch::Tensor> spike_forward(const torch::Tensor& u2d,
-                                                      const SpikeParams& p, bool use_cpu_kernel);
+                                                      const SpikeParams& p, bool use_fused);
 // dL/du from dL/ds and the saved u~ (both [T, N]). No autograd.
 torch::Tensor spike_backward(const torch::Tensor& grad_s, const torch::Tensor& u_ref,
-                             const SpikeParams& p, bool use_cpu_kernel);
+                             const SpikeParams& p, bool use_fused);
 // The surrogate rho(u~) elementwise.
 torch::Tensor surrogate_pdf(const torch::Tensor& u_ref, const SpikeParams& p);
 

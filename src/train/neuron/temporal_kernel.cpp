@@ -6,6 +6,8 @@
 #include <cmath>
 
 #include "core/util/error.h"
+#include "train/neuron/kernel_choice.h"
+#include "train/neuron/neuron_cuda_torch.h"
 
 namespace spikems::train {
 
@@ -176,6 +178,18 @@ torch::Tensor apply_temporal_kernel_cpu(const torch::Tensor& x_in, const Tempora
       iir_cpu<scalar_t>(xp, yp, T, N, k, scalar_t(scale), reverse);
   });
   return y;
+}
+
+bool fused_temporal_kernel_for(const torch::Tensor& x, const TemporalKernel& k) {
+  if (neuron_kernels() != NeuronKernels::Fused || x.numel() == 0) return false;
+  if (x.device().is_cpu()) return true;
+  return x.is_cuda() && cuda_kernels_built() && cuda_kernel_fits(k);
+}
+
+torch::Tensor apply_temporal_kernel_fused(const torch::Tensor& x, const TemporalKernel& k,
+                                          double scale, bool reverse) {
+  if (x.device().is_cpu()) return apply_temporal_kernel_cpu(x, k, scale, reverse);
+  return cuda_temporal_filter(x.contiguous(), k, scale, reverse);
 }
 
 }  // namespace spikems::train

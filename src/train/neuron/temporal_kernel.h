@@ -44,5 +44,10 @@ torch::Tensor apply_temporal_kernel_ops(const torch::Tensor& x, const TemporalKe
 // Fast CPU kernel: x is a contiguous [T, N] float or double CPU tensor. No autograd.
 torch::Tensor apply_temporal_kernel_cpu(const torch::Tensor& x, const TemporalKernel& k,
                                         double scale, bool reverse);
+// Whether a fused kernel (CPU, or CUDA where built) filters x, given the process-wide choice
+// (kernel_choice.h); and that kernel, on [T, N] tensors. No autograd.
+bool fused_temporal_kernel_for(const torch::Tensor& x, const TemporalKernel& k);
+torch::Tensor apply_temporal_kernel_fused(const torch::Tensor& x, const TemporalKernel& k,
+                                          double scale, bool reverse);
 
 }  // namespace spikems::train

@@ -243,11 +243,13 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   c.seed = uint64_t(seed);
   b.bind("run", "threads", c.threads);
   b.bind("run", "device", c.device);
+  b.bind("run", "neuron_kernels", c.neuron_kernels);
   b.bind("run", "log_every", c.log_every);
   b.bind("run", "val_every", c.val_every);
   b.bind("run", "checkpoint_every", c.checkpoint_every);
   b.bind("run", "val_samples", c.val_samples);
   b.bind("run", "prefetch", c.prefetch);
+  b.bind("run", "loader_threads", c.loader_threads);
   b.bind("run", "val_full_s", c.val_full_s);
   b.bind("run", "val_full_window_ms", c.val_full_window_ms);
   b.bind("run", "gate_events", c.gate_events);
@@ -300,7 +302,9 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.warmup_steps < 0) b.bad("optim", "warmup_steps", "must not be negative");
   if (c.step_every < 1) b.bad("optim", "step_every", "must be at least 1");
   one_of(b, "run", "device", c.device, {"cpu", "cuda"});
+  one_of(b, "run", "neuron_kernels", c.neuron_kernels, {"fused", "ops"});
   if (c.threads < 0) b.bad("run", "threads", "must not be negative");
+  if (c.loader_threads < 0) b.bad("run", "loader_threads", "must not be negative");
   for (auto [k, v] : {std::pair{"log_every", c.log_every},
                       {"val_every", c.val_every},
                       {"checkpoint_every", c.checkpoint_every},

@@ -59,7 +59,11 @@ struct TrainConfig {
   uint64_t seed = 1;
   int threads = 0;             // 0: all cores
   std::string device = "cpu";  // cpu | cuda
+  // Neuron dynamics: fused kernels (CPU; CUDA where built) or per-step tensor ops (reference).
+  std::string neuron_kernels = "fused";  // fused | ops
   int log_every = 10, val_every = 100, checkpoint_every = 25, val_samples = 64, prefetch = 4;
+  // Threads making samples (0: 1 on the CPU, whose cores train; most cores for a GPU).
+  int loader_threads = 0;
   // Whole-sensor validation as `spikems eval` scores it (streaming runtime, continuous state,
   // causal windows) on the first val_full_s seconds of every val sequence; 0: off. When on, the
   // best model is chosen by its IoU at val_full_window_ms: crop scores flatter (docs/results.md).

@@ -1,5 +1,8 @@
 #include "train/trainer/trainer.h"
 
+#include "train/neuron/kernel_choice.h"
+
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -18,6 +21,8 @@
 #include "train/loss/ann_loss.h"
 #include "train/loss/spikems_loss.h"
 #include "train/network/ann2d_network.h"
+#include "train/neuron/kernel_choice.h"
+#include "train/neuron/neuron_cuda_torch.h"
 #include "train/trainer/batch_tensors.h"
 #include "train/trainer/checkpoint.h"
 #include "train/trainer/weight_init.h"
@@ -254,6 +259,7 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
   if (c.device == "cuda" && !torch::cuda::is_available())
     fail("run.device", "", "cuda asked for, but this LibTorch has no CUDA device");
   const torch::Device device(c.device == "cuda" ? torch::kCUDA : torch::kCPU);
+  set_neuron_kernels(parse_neuron_kernels(c.neuron_kernels));
   const int threads = c.threads > 0 ? c.threads : int(std::thread::hardware_concurrency());
   torch::set_num_threads(std::max(1, threads));
   torch::manual_seed(c.seed);
@@ -341,7 +347,11 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
                   {"wall_seconds", st.wall_seconds},
                   {"best_val_iou", st.best_val_iou},
                   {"best_step", st.best_step},
-                  {"hardware", {{"cpu", cpu_name()}, {"threads", threads}, {"device", c.device}}},
+                  {"hardware",
+                   {{"cpu", cpu_name()},
+                    {"threads", threads},
+                    {"device", c.device == "cuda" ? "cuda: " + cuda_device_name() : c.device},
+                    {"neuron_kernels", c.neuron_kernels}}},
                   {"command", ro.command},
                   {"trainer", "spikems train 0.1.0"}};
     save_model(path, m);
@@ -419,7 +429,14 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
     validate_full(v);
     log_line(v);
   }
-  BatchLoader loader(train_ptr, weights, c.sample, c.batch, c.seed, st.step, c.prefetch);
+  // Sample making keeps a GPU busy only with many threads; on the CPU its cores train.
+  const int loader_threads =
+      c.loader_threads > 0
+          ? c.loader_threads
+          : (device.is_cuda() ? std::clamp(int(std::thread::hardware_concurrency()) - 2, 1, 12)
+                              : 1);
+  BatchLoader loader(train_ptr, weights, c.sample, c.batch, c.seed, st.step,
+                     std::max(c.prefetch, 2 * loader_threads), loader_threads);
   ProgressBar bar("train", uint64_t(c.steps) * uint64_t(c.batch), "samples", ro.progress);
   bar.update(uint64_t(st.step) * uint64_t(c.batch));
   TrainResult res;

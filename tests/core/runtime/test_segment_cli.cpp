@@ -220,13 +220,15 @@ TEST(SegmentCli, InterruptCommitsCompleteOutput) {
   std::string d = scratch_dir();
   std::string model = write_pass_off_model(d);
   std::string out;
-  // The segment process writes its own pid, so the signal reaches it (not a subshell).
+  // The segment process writes its own pid, so the signal reaches it (not a subshell); the
+  // script waits for that file (a loaded machine may start the process late).
   std::string script =
       "( printf '1000 3 4 0\\n2000 5 5 1\\n'; sleep 2; printf '3000 6 6 0\\n'; "
       "sleep 1 ) 2>/dev/null | sh -c 'echo $$ > " +
       d + "/pid; exec " + spikems_binary() + " segment --model " + model +
-      " --input - --width 16 --height 12 --out " + d +
-      "/live.txt' & P=$!; sleep 1; kill -INT $(cat " + d + "/pid); wait $P; echo rc=$?";
+      " --input - --width 16 --height 12 --out " + d + "/live.txt' & P=$!; i=0; while [ ! -s " + d +
+      "/pid ] && [ $i -lt 100 ]; do sleep 0.1; " + "i=$((i+1)); done; sleep 0.5; kill -INT $(cat " +
+      d + "/pid); wait $P; echo rc=$?";
   std::ofstream(d + "/run.sh") << script << "\n";
   run_command("sh " + d + "/run.sh", &out);
   EXPECT_NE(out.find("rc=0"), std::string::npos) << out;
