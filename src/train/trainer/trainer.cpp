@@ -469,6 +469,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   double ema_loss = -1, ema_iou = -1;
   WindowScores train_ws;
   double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_soft_iou = 0, sum_act = 0;
+  double sum_comm = 0;  // seconds in collectives, waiting for the slowest rank included
   std::vector<double> sum_rates(net.size(), 0.0);
   int in_sum = 0;
   auto seg_start = std::chrono::steady_clock::now();
@@ -498,7 +499,10 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     for (const auto& m :
          window_counts(o.out_window, o.fg_window, c.gate_events ? o.in_window : torch::Tensor()))
       mine.insert(mine.end(), {double(m.intersection), double(m.predicted), double(m.truth)});
+    auto t_comm = std::chrono::steady_clock::now();
     const std::vector<double> all = dist.all_gather(mine);
+    double comm_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t_comm).count();
     const size_t per_rank = mine.size(), head = 5 + n_rates;
     // Each rank's loss is the mean over its share; the run's loss is the mean over the ranks
     // (the same number a single process computes for losses that are means over samples).
@@ -520,7 +524,10 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
                ") is kept: lower optim.lr or raise optim.clip, "
                "then --resume");
     o.total.backward();
+    t_comm = std::chrono::steady_clock::now();
     dist.average_gradients(net.module());  // before clipping: the clip sees the global gradient
+    comm_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_comm).count();
+    sum_comm += comm_s;
     if (c.clip > 0) torch::nn::utils::clip_grad_norm_(net.module().parameters(), c.clip);
     opt.step();
     ++st.step;
@@ -554,22 +561,25 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     if (st.step % c.log_every == 0 || st.step == c.steps) {
       std::vector<double> r = sum_rates;
       for (double& v : r) v /= in_sum;
-      log_line({{"kind", "train"},
-                {"step", st.step},
-                {"loss", sum_loss / in_sum},
-                {"bce", sum_bce / in_sum},
-                {"spike", sum_spike / in_sum},
-                {"soft_iou_loss", sum_soft_iou / in_sum},
-                {"activity", sum_act / in_sum},
-                {"iou", 100 * train_ws.mean_iou()},
-                {"detection_rate", 100 * train_ws.detection_rate()},
-                {"lr", lr},
-                {"rates", rates_json(r)},
-                {"samples_per_s",
-                 double(in_sum * c.batch) / std::max(1e-9, st.wall_seconds - res.wall_seconds)},
-                {"wall_s", st.wall_seconds}});
+      nlohmann::json line = {
+          {"kind", "train"},
+          {"step", st.step},
+          {"loss", sum_loss / in_sum},
+          {"bce", sum_bce / in_sum},
+          {"spike", sum_spike / in_sum},
+          {"soft_iou_loss", sum_soft_iou / in_sum},
+          {"activity", sum_act / in_sum},
+          {"iou", 100 * train_ws.mean_iou()},
+          {"detection_rate", 100 * train_ws.detection_rate()},
+          {"lr", lr},
+          {"rates", rates_json(r)},
+          {"samples_per_s",
+           double(in_sum * c.batch) / std::max(1e-9, st.wall_seconds - res.wall_seconds)},
+          {"wall_s", st.wall_seconds}};
+      if (world > 1) line["comm_ms"] = std::round(1e4 * sum_comm / in_sum) / 10;
+      log_line(line);
       res.wall_seconds = st.wall_seconds;
-      sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = 0;
+      sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = sum_comm = 0;
       std::fill(sum_rates.begin(), sum_rates.end(), 0.0);
       in_sum = 0;
       train_ws = WindowScores();
