@@ -156,6 +156,21 @@ TEST(Distributed, TwoRanksEqualOneProcessWithTheCombinedBatch) {
       half_diff =
           std::max(half_diff, double(std::abs(a.layers[k].weight[i] - h.layers[k].weight[i])));
   EXPECT_GT(half_diff, 1e-4) << "batch 2 vs its first sample alone";
+  // Resume with another world size: 2 steps in 1 process, the 3rd in 2 ranks.
+  const std::string mixed = base + "/mixed";
+  ASSERT_EQ(run_command(train_command(2, 2) + " --out " + mixed, &out), 0) << out;
+  fs::create_directories(base + "/resume");
+  const Ranks rr = run_two(spikems_binary() + " train -q --resume " + mixed + " --steps 3",
+                           base + "/resume", "");
+  ASSERT_EQ(rr.rc0, 0) << rr.out0;
+  ASSERT_EQ(rr.rc1, 0) << rr.out1;
+  const ModelSpec m = load_model(mixed + "/model.safetensors");
+  double mixed_diff = 0;
+  for (size_t k = 0; k < a.layers.size(); ++k)
+    for (size_t i = 0; i < a.layers[k].weight.size(); ++i)
+      mixed_diff =
+          std::max(mixed_diff, double(std::abs(a.layers[k].weight[i] - m.layers[k].weight[i])));
+  EXPECT_LT(mixed_diff, 1e-5) << "1 process for 3 steps vs 1 process for 2 + 2 ranks for 1";
   const auto la = log_losses(one), lb = log_losses(two);
   ASSERT_EQ(la.size(), 3u);
   ASSERT_EQ(lb.size(), 3u);

@@ -62,9 +62,9 @@ class Distributed {
   void average_gradients(torch::nn::Module& m);
   // Every rank's `local` (same length everywhere) concatenated in rank order.
   std::vector<double> all_gather(const std::vector<double>& local);
-  // Rank 0 finishes a task of its own (validation) with root_done(name); the others wait for
-  // it in wait_for_root(name), up to max(timeout, 1 h): a validation may outlast the timeout,
-  // and a rank 0 that dies meanwhile is noticed at once (its store closes).
+  // Rank 0 finishes a task of its own (initialisation, validation) with root_done(name); the others
+  // wait for it in wait_for_root(name), up to max(timeout, 1 h): a validation may outlast the
+  // timeout, and a rank 0 that dies meanwhile is noticed at once (its store closes).
   void root_done(const std::string& name);
   void wait_for_root(const std::string& name);
   // The step this rank is working on, posted in the store so a failure can name who is behind.

@@ -346,6 +346,10 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
       }
     }
   }
+  // The others wait for rank 0's initialisation at the store (it may outlast the timeout on
+  // large crops), then take its weights.
+  dist.root_done("init");
+  dist.wait_for_root("init");
   dist.broadcast_module(net.module());  // rank 0's initial (or resumed) weights everywhere
   net.module().to(device);
   std::ofstream log;
