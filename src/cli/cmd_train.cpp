@@ -15,6 +15,7 @@ struct Args {
   std::string device;
   bool quiet = false;
   std::string command;
+  spikems::train::DistFlags dist;
 };
 
 void run(const Args& a) {
@@ -24,6 +25,7 @@ void run(const Args& a) {
   if (a.threads >= 0) overrides.push_back("run.threads=" + std::to_string(a.threads));
   if (!a.device.empty()) overrides.push_back("run.device=\"" + a.device + "\"");
   TrainRunOptions ro;
+  ro.dist = resolve_dist_options(a.dist);  // flags, then MASTER_ADDR, MASTER_PORT, RANK, WORLD_SIZE
   ro.progress = !a.quiet;
   ro.command = a.command;
   TrainConfig cfg;
@@ -42,6 +44,10 @@ void run(const Args& a) {
     cfg = load_train_config(a.config, overrides);
   }
   TrainResult r = run_training(cfg, ro);
+  if (ro.dist.rank != 0) {  // rank 0 reports the run
+    std::printf("rank %d: trained %lld steps\n", ro.dist.rank, (long long)r.steps);
+    return;
+  }
   std::printf(
       "trained %lld steps in %.0f s; best validation IoU %.1f %%; model: %s/model.safetensors"
       " (best: %s/best.safetensors)\n",
@@ -66,11 +72,30 @@ void add(CLI::App& app) {
   cmd->add_option("--device", a->device, "cpu or cuda (run.device)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
   cmd->add_flag("--quiet,-q", a->quiet, "no progress bar");
+  // Data-parallel training, launched like torchrun (docs/training.md).
+  cmd->add_option("--world-size", a->dist.world_size,
+                  "data-parallel: number of processes (WORLD_SIZE; 1 = single process)")
+      ->check(CLI::Range(1, 65536));
+  cmd->add_option("--rank", a->dist.rank, "data-parallel: this process's rank (RANK)")
+      ->check(CLI::Range(0, 65535));
+  cmd->add_option("--master-addr", a->dist.master_addr,
+                  "data-parallel: rank 0's host name or address (MASTER_ADDR)");
+  cmd->add_option("--master-port", a->dist.master_port,
+                  "data-parallel: rank 0's store port (MASTER_PORT; default 29500)")
+      ->check(CLI::Range(1, 65535));
+  cmd->add_option("--dist-timeout", a->dist.timeout_s,
+                  "data-parallel: seconds a rank waits for the others before stopping "
+                  "(default 300)")
+      ->check(CLI::Range(0.001, 1e7));
   cmd->footer(
       "Examples:\n"
       "  spikems simulate --preset mod --sequences 20 --duration 2s --out data/mod-train\n"
       "  spikems train --config configs/train/default.toml --out runs/default\n"
       "  spikems train --resume runs/default                  (after a stop or a kill)\n"
+      "  spikems train --config c.toml --out runs/dp --world-size 2 --rank 0 --master-addr "
+      "127.0.0.1 &\n"
+      "  spikems train --config c.toml --out runs/dp --world-size 2 --rank 1 --master-addr "
+      "127.0.0.1   (data-parallel; rank 0 writes the run)\n"
       "  spikems train --config configs/train/default.toml --out runs/x --set loss.kind=both "
       "--set optim.lr=0.002 --steps 500\n"
       "The run folder gets config.json, log.jsonl, curves.svg, checkpoint.pt, model.safetensors "

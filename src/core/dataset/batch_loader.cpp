@@ -4,11 +4,12 @@ namespace spikems {
 
 BatchLoader::BatchLoader(std::vector<const LabelledSequence*> seqs, std::vector<double> weights,
                          SampleOptions opt, int batch, uint64_t seed, int64_t first_step,
-                         int prefetch, int threads)
+                         int prefetch, int threads, int first_sample)
     : seqs_(std::move(seqs)),
       weights_(std::move(weights)),
       opt_(opt),
       batch_(batch),
+      first_sample_(first_sample),
       seed_(seed),
       prefetch_(std::max(1, prefetch)),
       next_claim_(first_step),
@@ -27,10 +28,10 @@ BatchLoader::~BatchLoader() {
 
 Batch BatchLoader::make(const std::vector<const LabelledSequence*>& seqs,
                         const std::vector<double>& weights, const SampleOptions& opt, int batch,
-                        uint64_t seed, int64_t step) {
+                        uint64_t seed, int64_t step, int first_sample) {
   Batch b;
   b.step = step;
-  for (int j = 0; j < batch; ++j) {
+  for (int j = first_sample; j < first_sample + batch; ++j) {
     std::mt19937_64 rng(mix_seed(seed, uint64_t(step), uint64_t(j)));
     SampleSpec s = draw_sample(seqs, weights, opt, rng);
     b.samples.push_back(extract_sample(*seqs[s.sequence], s, opt));
@@ -50,7 +51,7 @@ void BatchLoader::work() {
     Batch b;
     std::exception_ptr err;
     try {
-      b = make(seqs_, weights_, opt_, batch_, seed_, step);
+      b = make(seqs_, weights_, opt_, batch_, seed_, step, first_sample_);
     } catch (...) {
       err = std::current_exception();
     }

@@ -1,7 +1,8 @@
 // Batches of samples made on background threads, so the network never waits for data.
 // Batch k holds the samples drawn from the seeds (seed, k, 0..B-1) alone (sample.h,
 // mix_seed): the data position of a run is just its step number, and a run resumed at step k
-// sees the very batches an uninterrupted run sees.
+// sees the very batches an uninterrupted run sees. A data-parallel rank makes only its share
+// of each global batch: samples first_sample .. first_sample + batch - 1.
 #pragma once
 
 #include <condition_variable>
@@ -26,7 +27,7 @@ class BatchLoader {
   // ahead of the consumer.
   BatchLoader(std::vector<const LabelledSequence*> seqs, std::vector<double> weights,
               SampleOptions opt, int batch, uint64_t seed, int64_t first_step, int prefetch,
-              int threads = 1);
+              int threads = 1, int first_sample = 0);
   ~BatchLoader();
   BatchLoader(const BatchLoader&) = delete;
   BatchLoader& operator=(const BatchLoader&) = delete;
@@ -37,14 +38,14 @@ class BatchLoader {
   // The batch of one step, made on the calling thread (the same as the workers make).
   static Batch make(const std::vector<const LabelledSequence*>& seqs,
                     const std::vector<double>& weights, const SampleOptions& opt, int batch,
-                    uint64_t seed, int64_t step);
+                    uint64_t seed, int64_t step, int first_sample = 0);
 
  private:
   void work();
   std::vector<const LabelledSequence*> seqs_;
   std::vector<double> weights_;
   SampleOptions opt_;
-  int batch_;
+  int batch_, first_sample_;
   uint64_t seed_;
   int prefetch_;
   std::mutex mu_;

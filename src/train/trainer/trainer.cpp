@@ -1,10 +1,11 @@
 #include "train/trainer/trainer.h"
 
-#include "train/neuron/kernel_choice.h"
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
@@ -25,6 +26,7 @@
 #include "train/neuron/neuron_cuda_torch.h"
 #include "train/trainer/batch_tensors.h"
 #include "train/trainer/checkpoint.h"
+#include "train/trainer/distributed.h"
 #include "train/trainer/weight_init.h"
 
 namespace spikems::train {
@@ -247,15 +249,40 @@ TrainConfig load_run_config(const std::string& out_dir, const std::vector<std::s
   return load_train_config(path, overrides);
 }
 
-TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
+namespace {
+
+// Hidden switches for the dead-rank and hung-rank tests (SPIKEMS_TEST_DIE_AT_STEP,
+// SPIKEMS_TEST_HANG_AT_STEP): this process exits as a crash would (no cleanup, no message to
+// the others) or stops answering, after completing step N.
+int64_t test_switch(const char* name) {
+  const char* v = std::getenv(name);
+  return v && *v ? std::atoll(v) : -1;
+}
+
+TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
+                              std::unique_ptr<Distributed>& dist_ptr) {
   const auto t_start = std::chrono::steady_clock::now();
   const fs::path dir(ro.out_dir);
   const std::string ckpt_path = (dir / "checkpoint.pt").string();
+  const DistOptions& dopt = ro.dist;
+  const int world = dopt.world_size;
+  const bool root = dopt.rank == 0;  // rank 0 alone writes the run folder
+  if (world > 1) {
+    if (c.batch % world != 0)
+      fail("optim.batch", "",
+           std::to_string(c.batch) + " is not divisible by the world size " +
+               std::to_string(world) + ": each rank makes an equal share of every batch");
+    if (c.device == "cuda")
+      fail("run.device", "",
+           "data-parallel training runs on CPUs (Gloo); with --device cuda use world size 1");
+  }
   if (ro.resume && !fs::exists(ckpt_path))
-    fail(ckpt_path, "", "no checkpoint to resume from (has the run written one yet?)");
-  if (!ro.resume && fs::exists(ckpt_path))
+    fail(ckpt_path, "",
+         "no checkpoint to resume from (has the run written one yet?" +
+             std::string(world > 1 ? " Every rank reads it: is the folder shared?)" : ")"));
+  if (root && !ro.resume && fs::exists(ckpt_path))
     fail(ro.out_dir, "", "holds a run already: continue it with --resume, or choose another --out");
-  fs::create_directories(dir);
+  if (root) fs::create_directories(dir);
   if (c.device == "cuda" && !torch::cuda::is_available())
     fail("run.device", "", "cuda asked for, but this LibTorch has no CUDA device");
   const torch::Device device(c.device == "cuda" ? torch::kCUDA : torch::kCPU);
@@ -283,6 +310,10 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
   for (auto& s : train_seqs) train_ptr.push_back(&s);
   for (auto& s : val_seqs) val_ptr.push_back(&s);
   const double ts = double(c.sample.step_us) / 1000.0;
+  // The rendezvous after loading the data, so that ranks loading at different speeds do not
+  // spend the timeout.
+  dist_ptr = std::make_unique<Distributed>(dopt);
+  Distributed& dist = *dist_ptr;
 
   ModelSpec spec = initial_spec(c);
   spec.time_step_ms = ts;
@@ -302,11 +333,11 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
   const std::string log_path = (dir / "log.jsonl").string();
   Curves curves;
   // The run's config.json always holds the configuration in force (a resume's --set too).
-  write_file_atomic((dir / "config.json").string(), c.source.dump(2) + "\n");
-  if (ro.resume) {
+  if (root) write_file_atomic((dir / "config.json").string(), c.source.dump(2) + "\n");
+  if (ro.resume) {  // every rank reads the same checkpoint (model and Adam state)
     st = load_checkpoint(ckpt_path, net.module(), opt);
-    curves = trim_log(log_path, st.step);
-  } else {
+    if (root) curves = trim_log(log_path, st.step);
+  } else if (root) {
     write_file_atomic(log_path, "");
     if (c.init == "data" && net.snn) {
       Batch b = BatchLoader::make(train_ptr, weights, c.sample, std::max(4, c.batch), c.seed, -1);
@@ -319,24 +350,31 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
       }
     }
   }
+  // The others wait for rank 0's initialisation at the store (it may outlast the timeout on
+  // large crops), then take its weights.
+  dist.root_done("init");
+  dist.wait_for_root("init");
+  dist.broadcast_module(net.module());  // rank 0's initial (or resumed) weights everywhere
   net.module().to(device);
-  std::ofstream log(log_path, std::ios::app);
+  std::ofstream log;
+  if (root) log.open(log_path, std::ios::app);
   auto log_line = [&](const nlohmann::json& j) {
+    if (!root) return;
     log << j.dump() << "\n";
     log.flush();
     curves.add(j);
   };
-  log_line({{"kind", "run"},
-            {"step", st.step},
-            {"event", ro.resume ? "resume" : "start"},
-            {"threads", threads},
-            {"device", c.device},
-            {"command", ro.command}});
+  nlohmann::json start_line = {
+      {"kind", "run"},      {"step", st.step},    {"event", ro.resume ? "resume" : "start"},
+      {"threads", threads}, {"device", c.device}, {"command", ro.command}};
+  if (world > 1) start_line["world_size"] = world;
+  log_line(start_line);
 
+  // Validation runs on rank 0 alone; the others wait for it (Distributed::wait_for_root).
+  const bool has_val = !val_ptr.empty() && c.val_samples > 0;
   const std::vector<Sample> val =
-      val_ptr.empty() || c.val_samples == 0
-          ? std::vector<Sample>{}
-          : validation_samples(val_ptr, c.sample, c.val_samples, c.seed);
+      !has_val || !root ? std::vector<Sample>{}
+                        : validation_samples(val_ptr, c.sample, c.val_samples, c.seed);
   const LossOptions lo = loss_options(c, ts);
 
   auto save_model_file = [&](const std::string& path) {
@@ -424,39 +462,79 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
     save_model_file((dir / "model.safetensors").string());
   };
 
-  if (!ro.resume && !val.empty()) {  // the untrained network's score
-    nlohmann::json v = validate();
-    validate_full(v);
-    log_line(v);
+  if (!ro.resume && has_val) {  // the untrained network's score
+    if (root) {
+      nlohmann::json v = validate();
+      validate_full(v);
+      log_line(v);
+    }
+    dist.root_done("val/0");
+    dist.wait_for_root("val/0");
   }
-  // Sample making keeps a GPU busy only with many threads; on the CPU its cores train.
+  // Rank r makes samples [r B/W, (r+1) B/W) of every global batch of B samples. Sample
+  // making keeps a GPU busy only with many threads; on the CPU its cores train.
+  const int local_batch = c.batch / world;
   const int loader_threads =
       c.loader_threads > 0
           ? c.loader_threads
           : (device.is_cuda() ? std::clamp(int(std::thread::hardware_concurrency()) - 2, 1, 12)
                               : 1);
-  BatchLoader loader(train_ptr, weights, c.sample, c.batch, c.seed, st.step,
-                     std::max(c.prefetch, 2 * loader_threads), loader_threads);
-  ProgressBar bar("train", uint64_t(c.steps) * uint64_t(c.batch), "samples", ro.progress);
+  BatchLoader loader(train_ptr, weights, c.sample, local_batch, c.seed, st.step,
+                     std::max(c.prefetch, 2 * loader_threads), loader_threads,
+                     dopt.rank * local_batch);
+  ProgressBar bar("train", uint64_t(c.steps) * uint64_t(c.batch), "samples", ro.progress && root);
   bar.update(uint64_t(st.step) * uint64_t(c.batch));
   TrainResult res;
   double ema_loss = -1, ema_iou = -1;
   WindowScores train_ws;
   double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_soft_iou = 0, sum_act = 0;
+  double sum_comm = 0;  // seconds in collectives, waiting for the slowest rank included
   std::vector<double> sum_rates(net.size(), 0.0);
   int in_sum = 0;
   auto seg_start = std::chrono::steady_clock::now();
   const double wall_before = st.wall_seconds;
   res.wall_seconds = st.wall_seconds;  // time of the last log line (samples/s between lines)
-  while (st.step < c.steps) {
-    if (interrupted()) break;
+  const int64_t die_at = test_switch("SPIKEMS_TEST_DIE_AT_STEP");
+  const int64_t hang_at = test_switch("SPIKEMS_TEST_HANG_AT_STEP");
+  const size_t n_rates = net.size();
+  bool stop = false;  // Ctrl-C on any rank: every rank stops after the same step
+  while (st.step < c.steps && !stop) {
+    if (world == 1 && interrupted()) break;
+    dist.set_step(st.step + 1);
     Batch b = loader.next();
     BatchTensors bt = to_tensors(b.samples, ts, device);
     const double lr = lr_at(c, st.step);
     for (auto& g : opt.param_groups()) static_cast<torch::optim::AdamOptions&>(g.options()).lr(lr);
     opt.zero_grad();
     StepOutput o = net.step(bt, c, lo, ts);
-    const double loss = o.total.item<double>();
+    // This rank's numbers for the log, gathered from every rank before the backward pass so
+    // that a non-finite loss anywhere stops every rank before any weight changes:
+    // [loss terms x5, rates, interrupted, then (intersection, predicted, truth) per window].
+    std::vector<double> mine = {o.total.item<double>(), o.bce.item<double>(),
+                                o.spike.item<double>(), o.iou.item<double>(),
+                                o.activity.item<double>()};
+    mine.insert(mine.end(), o.rates.begin(), o.rates.end());
+    mine.push_back(world > 1 && interrupted() ? 1.0 : 0.0);
+    for (const auto& m :
+         window_counts(o.out_window, o.fg_window, c.gate_events ? o.in_window : torch::Tensor()))
+      mine.insert(mine.end(), {double(m.intersection), double(m.predicted), double(m.truth)});
+    auto t_comm = std::chrono::steady_clock::now();
+    const std::vector<double> all = dist.all_gather(mine);
+    double comm_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t_comm).count();
+    const size_t per_rank = mine.size(), head = 5 + n_rates;
+    // Each rank's loss is the mean over its share; the run's loss is the mean over the ranks
+    // (the same number a single process computes for losses that are means over samples).
+    std::vector<double> terms(head, 0.0);
+    std::vector<MaskCounts> counts;
+    for (int r = 0; r < world; ++r) {
+      const double* p = all.data() + size_t(r) * per_rank;
+      for (size_t k = 0; k < head; ++k) terms[k] += p[k] / world;
+      stop = stop || p[head] != 0;
+      for (size_t k = head + 1; k + 2 < per_rank; k += 3)
+        counts.push_back({uint64_t(p[k]), uint64_t(p[k + 1]), uint64_t(p[k + 2])});
+    }
+    const double loss = terms[0];
     if (!std::isfinite(loss))
       fail(ro.out_dir, "step " + std::to_string(st.step + 1),
            "the loss is " + std::string(std::isnan(loss) ? "NaN" : "infinite") +
@@ -465,23 +543,31 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
                ") is kept: lower optim.lr or raise optim.clip, "
                "then --resume");
     o.total.backward();
+    t_comm = std::chrono::steady_clock::now();
+    dist.average_gradients(net.module());  // before clipping: the clip sees the global gradient
+    comm_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_comm).count();
+    sum_comm += comm_s;
     if (c.clip > 0) torch::nn::utils::clip_grad_norm_(net.module().parameters(), c.clip);
     opt.step();
     ++st.step;
+    if (st.step == die_at) std::_Exit(3);
+    if (st.step == hang_at) {  // silent for 2 x timeout + 2 s, then gone (no stray process)
+      std::this_thread::sleep_for(std::chrono::duration<double>(2 * dopt.timeout_s + 2));
+      std::_Exit(4);
+    }
     WindowScores ws;  // this batch (progress bar); train_ws: since the last log line
-    for (const auto& m :
-         window_counts(o.out_window, o.fg_window, c.gate_events ? o.in_window : torch::Tensor())) {
+    for (const auto& m : counts) {
       ws.add(m);
       train_ws.add(m);
     }
     ema_loss = ema_loss < 0 ? loss : 0.95 * ema_loss + 0.05 * loss;
     if (ws.windows()) ema_iou = ema_iou < 0 ? ws.mean_iou() : 0.95 * ema_iou + 0.05 * ws.mean_iou();
     sum_loss += loss;
-    sum_bce += o.bce.item<double>();
-    sum_spike += o.spike.item<double>();
-    sum_soft_iou += o.iou.item<double>();
-    sum_act += o.activity.item<double>();
-    for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += o.rates[k];
+    sum_bce += terms[1];
+    sum_spike += terms[2];
+    sum_soft_iou += terms[3];
+    sum_act += terms[4];
+    for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += terms[5 + k];
     ++in_sum;
     st.wall_seconds =
         wall_before +
@@ -494,51 +580,61 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
     if (st.step % c.log_every == 0 || st.step == c.steps) {
       std::vector<double> r = sum_rates;
       for (double& v : r) v /= in_sum;
-      log_line({{"kind", "train"},
-                {"step", st.step},
-                {"loss", sum_loss / in_sum},
-                {"bce", sum_bce / in_sum},
-                {"spike", sum_spike / in_sum},
-                {"soft_iou_loss", sum_soft_iou / in_sum},
-                {"activity", sum_act / in_sum},
-                {"iou", 100 * train_ws.mean_iou()},
-                {"detection_rate", 100 * train_ws.detection_rate()},
-                {"lr", lr},
-                {"rates", rates_json(r)},
-                {"samples_per_s",
-                 double(in_sum * c.batch) / std::max(1e-9, st.wall_seconds - res.wall_seconds)},
-                {"wall_s", st.wall_seconds}});
+      nlohmann::json line = {
+          {"kind", "train"},
+          {"step", st.step},
+          {"loss", sum_loss / in_sum},
+          {"bce", sum_bce / in_sum},
+          {"spike", sum_spike / in_sum},
+          {"soft_iou_loss", sum_soft_iou / in_sum},
+          {"activity", sum_act / in_sum},
+          {"iou", 100 * train_ws.mean_iou()},
+          {"detection_rate", 100 * train_ws.detection_rate()},
+          {"lr", lr},
+          {"rates", rates_json(r)},
+          {"samples_per_s",
+           double(in_sum * c.batch) / std::max(1e-9, st.wall_seconds - res.wall_seconds)},
+          {"wall_s", st.wall_seconds}};
+      if (world > 1) line["comm_ms"] = std::round(1e4 * sum_comm / in_sum) / 10;
+      log_line(line);
       res.wall_seconds = st.wall_seconds;
-      sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = 0;
+      sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = sum_comm = 0;
       std::fill(sum_rates.begin(), sum_rates.end(), 0.0);
       in_sum = 0;
       train_ws = WindowScores();
     }
-    if (!val.empty() && (st.step % c.val_every == 0 || st.step == c.steps)) {
-      nlohmann::json v = validate();
-      validate_full(v);
-      log_line(v);
-      if (val_score(v) > st.best_val_iou) {
-        st.best_val_iou = val_score(v);
-        st.best_step = st.step;
-        save_model_file((dir / "best.safetensors").string());
+    if (has_val && (st.step % c.val_every == 0 || st.step == c.steps)) {
+      if (root) {
+        nlohmann::json v = validate();
+        validate_full(v);
+        log_line(v);
+        if (val_score(v) > st.best_val_iou) {
+          st.best_val_iou = val_score(v);
+          st.best_step = st.step;
+          save_model_file((dir / "best.safetensors").string());
+        }
+        curves.write((dir / "curves.svg").string());
+        if (ro.progress) {
+          const std::string whole =
+              full_val ? ", whole sensor " + percent(v["full_iou"].get<double>()) + " %" : "";
+          std::fprintf(stderr, "%sval step %lld: IoU %s %%%s (best %s at %lld), detection %s %%\n",
+                       isatty(2) ? "\n" : "", (long long)st.step,
+                       percent(v["iou"].get<double>()).c_str(), whole.c_str(),
+                       percent(st.best_val_iou).c_str(), (long long)st.best_step,
+                       percent(v["detection_rate"].get<double>()).c_str());
+        }
       }
-      curves.write((dir / "curves.svg").string());
-      if (ro.progress) {
-        const std::string whole =
-            full_val ? ", whole sensor " + percent(v["full_iou"].get<double>()) + " %" : "";
-        std::fprintf(stderr, "%sval step %lld: IoU %s %%%s (best %s at %lld), detection %s %%\n",
-                     isatty(2) ? "\n" : "", (long long)st.step,
-                     percent(v["iou"].get<double>()).c_str(), whole.c_str(),
-                     percent(st.best_val_iou).c_str(), (long long)st.best_step,
-                     percent(v["detection_rate"].get<double>()).c_str());
-      }
+      const std::string key = "val/" + std::to_string(st.step);
+      dist.root_done(key);
+      dist.wait_for_root(key);
     }
-    if (st.step % c.checkpoint_every == 0 || st.step == c.steps) checkpoint();
+    if (root && (st.step % c.checkpoint_every == 0 || st.step == c.steps)) checkpoint();
   }
   bar.finish();
-  if (st.step % c.checkpoint_every != 0 && st.step != c.steps) checkpoint();  // interrupted
-  curves.write((dir / "curves.svg").string());
+  if (root) {
+    if (st.step % c.checkpoint_every != 0 && st.step != c.steps) checkpoint();  // interrupted
+    curves.write((dir / "curves.svg").string());
+  }
   log_line({{"kind", "run"},
             {"step", st.step},
             {"event", st.step >= c.steps ? "done" : "interrupted"},
@@ -548,6 +644,18 @@ TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
   res.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return res;
+}
+
+}  // namespace
+
+TrainResult run_training(const TrainConfig& c, const TrainRunOptions& ro) {
+  std::unique_ptr<Distributed> dist;
+  try {
+    return run_training_impl(c, ro, dist);
+  } catch (const std::exception& e) {
+    if (dist) dist->report_failure(e.what());  // the other ranks' messages name this one
+    throw;
+  }
 }
 
 }  // namespace spikems::train

@@ -11,6 +11,7 @@
 
 #include <string>
 
+#include "train/trainer/distributed.h"
 #include "train/trainer/train_config.h"
 
 namespace spikems::train {
@@ -20,6 +21,9 @@ struct TrainRunOptions {
   bool resume = false;   // continue the run in out_dir from its checkpoint
   bool progress = true;  // progress bar on stderr
   std::string command;   // the command line, for the model's provenance
+  // Data-parallel training (distributed.h): world size 1 is the single-process run. Every rank
+  // runs run_training with the same configuration; rank 0 alone writes the run folder.
+  DistOptions dist;
 };
 
 struct TrainResult {
@@ -28,7 +32,8 @@ struct TrainResult {
 };
 
 // Throws Error on bad data, a non-finite loss (naming the step; the last checkpoint stays) or
-// an unwritable folder. Ctrl-C stops after the current step with a checkpoint.
+// an unwritable folder, and in a data-parallel run when a rank dies or hangs (naming it).
+// Ctrl-C (on any rank) stops after the current step with a checkpoint.
 TrainResult run_training(const TrainConfig& cfg, const TrainRunOptions& opt);
 
 // The run folder's saved configuration with `overrides` applied (for --resume).

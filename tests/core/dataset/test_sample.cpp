@@ -181,6 +181,27 @@ TEST(BatchLoader, BackgroundBatchesEqualBatchesMadeInPlaceFromAnyStartStep) {
   }
 }
 
+// A data-parallel rank's share of a global batch is the same samples the whole batch holds.
+TEST(BatchLoader, ShardsAreSlicesOfTheGlobalBatch) {
+  const LabelledSequence seq = synthetic();
+  std::vector<const LabelledSequence*> seqs{&seq};
+  SampleOptions o = plain();
+  o.flip_x = 0.5;
+  o.noise_hz_max = 50;
+  BatchLoader loader(seqs, {1.0}, o, 2, 42, 3, 2, 1, 2);  // samples 2, 3 of a batch of 4
+  for (int64_t step = 3; step < 6; ++step) {
+    Batch whole = BatchLoader::make(seqs, {1.0}, o, 4, 42, step);
+    Batch shard = loader.next();
+    ASSERT_EQ(shard.samples.size(), 2u);
+    for (size_t j = 0; j < 2; ++j) {
+      EXPECT_EQ(shard.samples[j].input, whole.samples[2 + j].input);
+      EXPECT_EQ(shard.samples[j].fg, whole.samples[2 + j].fg);
+    }
+    // and differ from the first half (the test could not pass with an ignored offset)
+    EXPECT_NE(shard.samples[0].input, whole.samples[0].input);
+  }
+}
+
 TEST(Dataset, LoadsASimulatorStyleFolderBySplitAndRefusesUnlabelledData) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / "spikems_dataset_test";
