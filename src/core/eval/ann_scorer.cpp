@@ -1,11 +1,15 @@
 #include "core/eval/ann_scorer.h"
 
+#include <algorithm>
+#include <exception>
+
 #include "core/eval/kalman_filter.h"
 #include "core/eval/window_scorer.h"
 #include "core/events/binning.h"
 #include "core/runtime/ann2d_network.h"
 #include "core/runtime/ann_features.h"
 #include "core/util/error.h"
+#include "core/util/parallel.h"
 
 namespace spikems {
 
@@ -44,29 +48,48 @@ SequenceScore score_ann_sequence(const ModelSpec& model, const LabelledSequence&
     PredictionFrame f;
     f.width = W;
     f.height = H;
-    for (int64_t k = 0; t0 + (k + 1) * L <= end; ++k) {
-      const int64_t a = t0 + k * L;
-      const SpikeTensor s = bin_events(scored, a, L, bc);
-      const std::vector<float> feat = ann_features(s.data.data(), s.T, H, W);
-      const std::vector<float> logit = net.forward(feat, H, W);
-      // Channels 0 and 1 are log(1 + spike count): > 0 where the pixel had events.
-      f.foreground.assign(plane, 0);
-      for (size_t i = 0; i < plane; ++i)
-        f.foreground[i] = (feat[i] > 0 || feat[plane + i] > 0) && logit[i] > 0;
-      f.t0_us = a;
-      f.t1_us = a + L;
-      f.index = int(k);
-      scorer.add_frame(f);
-      const auto [b, e] = scored.time_range(a, a + L);
-      if (plain)
-        for (size_t i = b; i < e; ++i)
-          tally.add(scored.t[i], scored.label[i] != 0,
-                    logit[size_t(scored.y[i]) * size_t(W) + scored.x[i]] > 0);
-      done += e - b;
-      if (opt.progress && !opt.progress(done / runs)) {
-        r.complete = false;
-        r.scores.assign(r.scores.size(), WindowScores{});
-        return r;
+    // Windows are independent frames: their forward passes run `opt.threads` at a time, and
+    // the results go to the scorer in window order (the same scores as one thread).
+    const int64_t count = (end - t0) / L;
+    const int64_t chunk = std::max(1, opt.threads) * 2;
+    std::vector<std::vector<float>> feats(static_cast<size_t>(chunk)), logits(feats.size());
+    for (int64_t k0 = 0; k0 < count; k0 += chunk) {
+      const int64_t k1 = std::min(count, k0 + chunk);
+      std::vector<std::exception_ptr> errors(feats.size());
+      parallel_chunks(int(k1 - k0), opt.threads, [&](int, int j0, int j1) {
+        for (int j = j0; j < j1; ++j) try {
+            const SpikeTensor s = bin_events(scored, t0 + (k0 + j) * L, L, bc);
+            feats[size_t(j)] = ann_features(s.data.data(), s.T, H, W);
+            logits[size_t(j)] = net.forward(feats[size_t(j)], H, W);
+          } catch (...) {
+            errors[size_t(j)] = std::current_exception();
+          }
+      });
+      for (const auto& e : errors)
+        if (e) std::rethrow_exception(e);
+      for (int64_t k = k0; k < k1; ++k) {
+        const std::vector<float>& feat = feats[size_t(k - k0)];
+        const std::vector<float>& logit = logits[size_t(k - k0)];
+        const int64_t a = t0 + k * L;
+        // Channels 0 and 1 are log(1 + spike count): > 0 where the pixel had events.
+        f.foreground.assign(plane, 0);
+        for (size_t i = 0; i < plane; ++i)
+          f.foreground[i] = (feat[i] > 0 || feat[plane + i] > 0) && logit[i] > 0;
+        f.t0_us = a;
+        f.t1_us = a + L;
+        f.index = int(k);
+        scorer.add_frame(f);
+        const auto [b, e] = scored.time_range(a, a + L);
+        if (plain)
+          for (size_t i = b; i < e; ++i)
+            tally.add(scored.t[i], scored.label[i] != 0,
+                      logit[size_t(scored.y[i]) * size_t(W) + scored.x[i]] > 0);
+        done += e - b;
+        if (opt.progress && !opt.progress(done / runs)) {
+          r.complete = false;
+          r.scores.assign(r.scores.size(), WindowScores{});
+          return r;
+        }
       }
     }
     scorer.finish(end);

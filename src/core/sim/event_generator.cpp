@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-#include "core/sim/parallel.h"
+#include "core/util/parallel.h"
 
 namespace spikems::sim {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "core/sim/fast_math.h"
-#include "core/sim/parallel.h"
+#include "core/util/parallel.h"
 
 namespace spikems::sim {
 

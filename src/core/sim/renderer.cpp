@@ -15,7 +15,7 @@
 #include <cstring>
 
 #include "core/sim/fast_math.h"
-#include "core/sim/parallel.h"
+#include "core/util/parallel.h"
 #include "core/util/error.h"
 
 // One clone per instruction set for the row loops (chosen at load time); IEEE operations

@@ -52,6 +52,40 @@ TEST(AnnScorer, ConstantLogitsGiveTheBaselineOrNothing) {
   EXPECT_NEAR(yes.scores[0].mean_iou(), (2.0 / 3 + 1.0 / 3) / 2, 1e-12);
 }
 
+TEST(AnnScorer, ThreadsGiveTheSameScoresAsOne) {
+  // Random weights and events: windows scored on 3 threads, in chunks, equal one thread's.
+  ModelSpec m = ann2d_architecture();
+  uint64_t r = 12345;
+  auto next = [&] {
+    r = r * 6364136223846793005ULL + 1442695040888963407ULL;
+    return float(int64_t(r >> 33) % 2001 - 1000) / 1000.f;
+  };
+  for (auto& l : m.layers) {
+    for (float& w : l.weight) w = 0.6f * next();
+    for (float& b : l.bias) b = 0.1f * next();
+  }
+  EventStream e;
+  e.sensor = SensorSize{12, 9};
+  for (int i = 0; i < 3000; ++i)
+    e.push_back(i * 10, uint16_t((next() + 1) * 5.9f), uint16_t((next() + 1) * 4.4f),
+                uint8_t(next() > 0), uint16_t(next() > 0.3f));
+  LabelledSequence s{"random", e};
+  const std::vector<int64_t> windows = {1000, 3000};
+  SequenceScoreOptions one, three;
+  three.threads = 3;
+  const SequenceScore a = score_ann_sequence(m, s, windows, one);
+  const SequenceScore b = score_ann_sequence(m, s, windows, three);
+  for (size_t i = 0; i < windows.size(); ++i) {
+    EXPECT_GT(a.scores[i].windows(), 5);
+    EXPECT_EQ(a.scores[i].windows(), b.scores[i].windows());
+    EXPECT_EQ(a.scores[i].mean_iou(), b.scores[i].mean_iou());
+    EXPECT_EQ(a.scores[i].detection_rate(), b.scores[i].detection_rate());
+    EXPECT_EQ(a.events_pr[i].precision(), b.events_pr[i].precision());
+  }
+  EXPECT_GT(a.scores[0].mean_iou(), 0.0);  // the case predicts something
+  EXPECT_LT(a.scores[0].mean_iou(), 1.0);
+}
+
 TEST(AnnScorer, BadInput) {
   LabelledSequence s{"hand", hand_events()};
   EXPECT_THROW(score_ann_sequence(constant_logit(1.f), s, {1500}), Error);  // not whole steps

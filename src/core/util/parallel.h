@@ -1,12 +1,13 @@
 // Splits [0, n) into contiguous chunks run on `threads` threads (inline when threads <= 1).
 // Chunks are contiguous and in order, so callers can merge per-chunk results deterministically.
+// f must not throw (a worker's exception would end the program): catch inside and rethrow after.
 #pragma once
 
 #include <algorithm>
 #include <thread>
 #include <vector>
 
-namespace spikems::sim {
+namespace spikems {
 
 template <class F>
 void parallel_chunks(int n, int threads, F&& f) {
@@ -23,4 +24,4 @@ void parallel_chunks(int n, int threads, F&& f) {
   for (auto& th : pool) th.join();
 }
 
-}  // namespace spikems::sim
+}  // namespace spikems
