@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <climits>
 #include <fstream>
 #include <string_view>
 
@@ -147,7 +148,29 @@ bool BoxTruth::contains(int64_t t, int x, int y) const {
 
 void BoxTruth::label(EventStream& ev) const {
   ev.label.assign(ev.size(), 0);
-  for (size_t i = 0; i < ev.size(); ++i) ev.label[i] = contains(ev.t[i], ev.x[i], ev.y[i]) ? 1 : 0;
+  // A sweep over the time-sorted events, keeping the boxes valid now: each event is checked
+  // against those only (contains() may walk back over many boxes behind one long box).
+  std::vector<const Box*> active;
+  size_t next = 0;
+  int64_t now = INT64_MIN;
+  for (size_t i = 0; i < ev.size(); ++i) {
+    const int64_t t = ev.t[i];
+    if (t < now) {  // not time-sorted: no sweep for this one
+      ev.label[i] = contains(t, ev.x[i], ev.y[i]) ? 1 : 0;
+      continue;
+    }
+    if (t != now) {
+      now = t;
+      for (; next < boxes_.size() && boxes_[next].t_start_us <= t; ++next)
+        active.push_back(&boxes_[next]);
+      std::erase_if(active, [t](const Box* b) { return b->t_end_us <= t; });
+    }
+    for (const Box* b : active)
+      if (ev.x[i] >= b->x0 && ev.x[i] <= b->x1 && ev.y[i] >= b->y0 && ev.y[i] <= b->y1) {
+        ev.label[i] = 1;
+        break;
+      }
+  }
 }
 
 size_t BoxTruth::fill_window(int64_t t0, int64_t t1, std::vector<uint8_t>& mask,

@@ -43,7 +43,8 @@ class BoxTruth {
   void check_sensor(SensorSize sensor) const;
   // Whether pixel (x, y) lies in a box valid at t.
   bool contains(int64_t t_us, int x, int y) const;
-  // Labels every event 1 when contains(t, x, y), else 0 (replacing any labels it had).
+  // Labels every event 1 when contains(t, x, y), else 0 (replacing any labels it had); one
+  // sweep over time-sorted events.
   void label(EventStream& events) const;
   // Sets to 1 the pixels of `mask` (row-major, sensor-sized, checked by check_sensor) inside
   // the boxes valid at some time in [t0_us, t1_us); returns how many boxes that was.

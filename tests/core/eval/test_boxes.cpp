@@ -3,6 +3,7 @@
 // the window scores with G = box pixels on a hand-made case counted by hand.
 #include <gtest/gtest.h>
 
+#include <random>
 #include <sstream>
 
 #include "core/eval/boxes.h"
@@ -135,6 +136,38 @@ TEST(BoxTruthEvents, MovingMeansInsideABoxValidAtTheEventsTime) {
   e.push_back(2500, 3, 2, 1, 0);  // A has ended: 0
   b.label(e);
   EXPECT_EQ(e.label, (std::vector<uint16_t>{0, 1, 1, 0}));
+}
+
+// label() sweeps over the events; contains() searches the boxes: the same answer for random
+// boxes (long ones among short ones, equal starts) and events, sorted or not.
+TEST(BoxTruthEvents, TheSweepAgreesWithTheSearch) {
+  std::mt19937 rng(7);
+  std::ostringstream f;
+  f << "t_start_us,t_end_us,x0,y0,x1,y1\n";
+  int64_t t = 0;
+  for (int i = 0; i < 200; ++i) {
+    t += int64_t(rng() % 3) * 100;  // equal starts now and then
+    const int64_t len = rng() % 10 == 0 ? 50000 : 50 + rng() % 500;
+    const int x0 = int(rng() % 20), y0 = int(rng() % 20);
+    f << t << ',' << t + len << ',' << x0 << ',' << y0 << ',' << x0 + int(rng() % 5) << ','
+      << y0 + int(rng() % 5) << '\n';
+  }
+  const BoxTruth b = parse(f.str());
+  for (bool sorted : {true, false}) {
+    EventStream e;
+    e.sensor = {25, 25};
+    for (int i = 0; i < 5000; ++i)
+      e.push_back(sorted ? int64_t(i) * 6 : int64_t(rng() % 30000), uint16_t(rng() % 25),
+                  uint16_t(rng() % 25), 1, 0);
+    b.label(e);
+    size_t moving = 0;
+    for (size_t i = 0; i < e.size(); ++i) {
+      ASSERT_EQ(e.label[i] != 0, b.contains(e.t[i], e.x[i], e.y[i])) << "event " << i;
+      moving += e.label[i];
+    }
+    EXPECT_GT(moving, 100u);  // the case is not trivially all outside
+    EXPECT_LT(moving, e.size());
+  }
 }
 
 // Sensor 32x32; windows of 10 ms from the first event at t = 0.
