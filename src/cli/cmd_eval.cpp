@@ -16,7 +16,7 @@ namespace {
 using namespace spikems;
 
 struct Args {
-  std::string windows = "20,100", split = "test", out, kalman;
+  std::string windows = "20,100", split = "test", out, kalman, boxes;
   std::vector<std::string> models, data, baselines;
   int threads = 1;
   bool iir = false, quiet = false, gate_events = false;
@@ -39,6 +39,7 @@ void run(const Args& a) {
   o.threads = a.threads;
   o.iir = a.iir;
   o.gate_events = a.gate_events;
+  o.boxes = a.boxes;
   o.max_seconds = a.max_seconds;
   o.progress = !a.quiet;
   o.command_line = cli::invoked_command();
@@ -68,7 +69,9 @@ void add(CLI::App& app) {
       "at steps starting in the window, G = pixels with moving-object events; windows start at "
       "the first event, the partial last one is dropped, windows without moving objects are "
       "skipped. Event precision and recall: the events the runtime labels moving against "
-      "their labels. See docs/evaluation.md.\n\n"
+      "their labels. With --boxes FILE (one recording, labels not needed), G = the pixels "
+      "inside the boxes valid in the window and an event is moving when it lies in a box valid "
+      "at its time. See docs/evaluation.md.\n\n"
       "Examples:\n"
       "  spikems eval --model m.safetensors --data data/mod --out out/eval\n"
       "  spikems eval --model m.safetensors --data data/mod --split all --windows 1:25 --out o\n"
@@ -79,7 +82,9 @@ void add(CLI::App& app) {
       "--data data/mod --out o   (several models and the 'every event moving' baseline on the "
       "same windows)\n"
       "  spikems eval --model m.safetensors --data data/mod --windows 1:25 --kalman 3 --out o   "
-      "(incremental prediction: filtered 3 ms windows beside the plain ones)");
+      "(incremental prediction: filtered 3 ms windows beside the plain ones)\n"
+      "  spikems eval --model m.safetensors --data ball.txt --boxes ball_boxes.csv --windows 10 "
+      "(box ground truth, EED style)");
   cmd->add_option("--model", a.models,
                   "Model file (.safetensors, spikems format); repeat to compare several "
                   "(default: the shipped model)");
@@ -105,6 +110,10 @@ void add(CLI::App& app) {
   cmd->add_option("--threads", a.threads,
                   "Threads inside the network (the layers of a step run in parallel)")
       ->check(CLI::Range(1, 256));
+  cmd->add_option("--boxes", a.boxes,
+                  "Ground truth from bounding boxes (CSV: t_start_us,t_end_us,x0,y0,x1,y1[,id]; "
+                  "corners inclusive) for the one recording given with --data, which then needs "
+                  "no labels");
   cmd->add_flag("--gate-events", a.gate_events,
                 "Count predictions only at pixels with input events in the window (P ∩ E, as "
                 "per-event labels do; ANN-2D models are gated by construction)");

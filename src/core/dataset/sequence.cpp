@@ -48,7 +48,7 @@ std::vector<std::string> sequence_files(const DatasetSource& src) {
   return files;
 }
 
-LabelledSequence load_sequence(const std::string& path, int mask_dilation) {
+LabelledSequence load_sequence(const std::string& path, int mask_dilation, bool require_labels) {
   Recording rec = read_recording(path);
   LabelledSequence s;
   s.name = path;
@@ -66,7 +66,7 @@ LabelledSequence load_sequence(const std::string& path, int mask_dilation) {
     lo.moving_ids = ids;
     label_from_masks(s.events, rec.masks, lo);
     for (auto& l : s.events.label) l = l != 0 ? 1 : 0;
-  } else {
+  } else if (require_labels) {
     fail(path, "",
          "no labels: training and evaluation need per-event labels (object ids) or mask frames, "
          "e.g. from `spikems simulate`");

@@ -32,8 +32,10 @@ struct DatasetSource {
 std::vector<std::string> sequence_files(const DatasetSource& src);
 
 // One sequence, labels reduced to 0/1 (from the recording's labels, else its mask frames).
-// Throws Error when the recording carries neither labels nor masks.
-LabelledSequence load_sequence(const std::string& path, int mask_dilation = 5);
+// Throws Error when the recording carries neither labels nor masks, unless require_labels is
+// false (box ground truth, core/eval/boxes.h): then its events come back without labels.
+LabelledSequence load_sequence(const std::string& path, int mask_dilation = 5,
+                               bool require_labels = true);
 
 // Every sequence of a source (progress on stderr when `progress`).
 std::vector<LabelledSequence> load_sequences(const DatasetSource& src, bool progress = false);

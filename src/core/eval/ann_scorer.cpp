@@ -43,6 +43,7 @@ SequenceScore score_ann_sequence(const ModelSpec& model, const LabelledSequence&
     if (plain && L == opt.capture_window_us && !opt.capture_windows.empty())
       scorer.capture(opt.capture_window_us, opt.capture_windows);
     scorer.gate_by_events(opt.gate_events);
+    scorer.use_boxes(opt.boxes);
     EventTally tally(t0, L);
     scorer.add_events(scored);
     PredictionFrame f;

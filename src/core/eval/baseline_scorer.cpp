@@ -18,6 +18,7 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
   WindowScorer scorer(ev.sensor, windows_us, kalman_lengths(ev.sensor, opt));
   if (!opt.capture_windows.empty()) scorer.capture(opt.capture_window_us, opt.capture_windows);
   scorer.gate_by_events(opt.gate_events);
+  scorer.use_boxes(opt.boxes);
   EventTally tally(t0, scorer.frame_us());  // every event predicted moving
   const int64_t F = scorer.frame_us();
   PredictionFrame f;

@@ -5,6 +5,7 @@
 #include "core/dataset/sequence.h"
 #include "core/eval/ann_scorer.h"
 #include "core/eval/baseline_scorer.h"
+#include "core/eval/boxes.h"
 #include "core/eval/sequence_scorer.h"
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
@@ -85,6 +86,18 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
     total += s.files.size();
     sources.push_back(std::move(s));
   }
+  // Box ground truth belongs to one recording: one file of boxes per --data would need a way
+  // to pair them; one at a time keeps the command plain.
+  std::shared_ptr<const BoxTruth> boxes;
+  if (!opt.boxes.empty()) {
+    if (total != 1)
+      fail("--boxes " + opt.boxes, "",
+           "a boxes file is the ground truth of one recording: give it with exactly one --data "
+           "holding one sequence (found " +
+               std::to_string(total) + " sequences in " + std::to_string(sources.size()) +
+               " --data)");
+    boxes = std::make_shared<const BoxTruth>(BoxTruth::read(opt.boxes));
+  }
 
   EvalResults r;
   r.command_line = opt.command_line;
@@ -115,6 +128,8 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   so.threads = opt.threads;
   so.kalman_us = opt.kalman_us;
   so.gate_events = opt.gate_events;
+  so.boxes = boxes;
+  r.boxes = opt.boxes;
   r.gate_events = opt.gate_events;
   r.label_tolerance_steps = so.label_tolerance_steps;
   so.max_us = opt.max_seconds > 0 ? int64_t(opt.max_seconds * 1e6 + 0.5) : 0;
@@ -132,7 +147,11 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
       const std::string name = fs::path(f).filename().string();
       bar.set_status(name + " loading");
       bar.update(done);
-      const LabelledSequence seq = load_sequence(f, s.src.mask_dilation);
+      LabelledSequence seq = load_sequence(f, s.src.mask_dilation, !boxes);
+      if (boxes) {  // the boxes replace any labels: moving = inside a box valid at its time
+        boxes->check_sensor(seq.events.sensor);
+        boxes->label(seq.events);
+      }
       const uint64_t n = seq.events.size();
       // The report's windows come from this same pass (no second run).
       so.capture_windows.clear();

@@ -28,6 +28,9 @@ struct EvalOptions {
   bool iir = false;  // run FIR layers as their exact IIR recursions
   bool gate_events =
       false;  // P ∩ E: predictions count only at pixels with events (window_scorer.h)
+  // A boxes file (boxes.h): G = box pixels and events moving when inside a valid box, for
+  // one recording (one --data with one sequence); its events then need no labels.
+  std::string boxes;
   double max_seconds = 0;    // > 0: only the first max_seconds of each sequence
   bool progress = false;     // progress bar on stderr
   std::string command_line;  // recorded in the results
@@ -41,7 +44,8 @@ struct EvalOptions {
 // runs; Ctrl-C (when util/interrupt.h's flag is installed) stops at the next chunk and returns
 // the sequences finished so far, marked interrupted. Throws Error naming the file and what to
 // do: unreadable or invalid model, a window that is not a multiple of the model's step, a
-// missing path, an empty or unknown split, a sequence without labels.
+// missing path, an empty or unknown split, a sequence without labels; with boxes, an invalid
+// boxes file (file:line) or more than one sequence.
 // With `examples`, also keeps a few windows per sequence for the report (report.h), captured
 // in the same scoring pass.
 EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples = nullptr);

@@ -108,12 +108,13 @@ std::string write_report(const EvalResults& r, const EvalExamples& ex, const std
     page.paragraph("Only the first " + fmt("%g", r.max_seconds) + " s of each sequence scored.");
   if (r.interrupted)
     page.paragraph("Interrupted (Ctrl-C): only the sequences finished before it are in.");
+  const std::string g = r.boxes.empty() ? "pixels with moving-object events"
+                                        : "pixels inside the boxes valid in the window";
   page.paragraph(
-      "IoU of the pixels with output spikes (steps starting in the window) against the pixels "
-      "with moving-object events, per window from each sequence's first event (the partial "
-      "last window dropped); mean ± std over all scored windows of a dataset; detection = "
-      "0-MMS. Windows without moving-object events are skipped (counted). See "
-      "docs/evaluation.md.");
+      "IoU of the pixels with output spikes (steps starting in the window) against the " + g +
+      ", per window from each sequence's first event (the partial last window dropped); mean ± "
+      "std over all scored windows of a dataset; detection = 0-MMS. Windows without moving "
+      "objects are skipped (counted). See docs/evaluation.md.");
 
   page.heading("Scores");
   const TextTable summary = summary_table(r);
@@ -176,8 +177,9 @@ std::string write_report(const EvalResults& r, const EvalExamples& ex, const std
   if (any) {
     page.heading("Windows");
     std::string panels =
-        "input events (ON red, OFF blue) | ground truth (pixels with "
-        "moving-object events, dark grey)";
+        "input events (ON red, OFF blue) | ground truth (" +
+        std::string(r.boxes.empty() ? "pixels with moving-object events" : "box pixels") +
+        ", dark grey)";
     for (const auto& m : r.models) panels += " | " + model_label(r, m);
     page.paragraph(
         "A few " + ms(ex.window_us) +

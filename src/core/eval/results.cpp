@@ -226,6 +226,7 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
       r.max_seconds > 0 ? nlohmann::ordered_json(r.max_seconds) : nlohmann::ordered_json(nullptr);
   j["interrupted"] = r.interrupted;
   j["gate_events"] = r.gate_events;
+  j["boxes"] = r.boxes.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(r.boxes);
   j["protocol"] = {
       {"window_start", "first event of each sequence"},
       {"partial_last_window", "dropped"},
@@ -233,7 +234,10 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
                          ? "pixels with input events in the window and an output spike at a step "
                            "whose start lies in the window (gate_events)"
                          : "pixels with an output spike at a step whose start lies in the window"},
-      {"truth", "pixels with input events labelled moving (label != 0) in the window"},
+      {"truth", r.boxes.empty()
+                    ? "pixels with input events labelled moving (label != 0) in the window"
+                    : "pixels inside the boxes (file `boxes`) valid at some time in the window; "
+                      "an event is truly moving when it lies in a box valid at its time"},
       {"iou", "|P and G| / |P or G| per window; mean and population std over windows"},
       {"detection", "0-MMS: |P and G| > 0.5 |G| and |P and G| > |P - G|"},
       {"skipped", "windows whose G is empty are not scored, only counted"},
@@ -350,13 +354,16 @@ std::string results_markdown(const EvalResults& r) {
   if (r.gate_events)
     out +=
         "- gated by events: P = pixels with an output spike *and* an input event in the window\n";
+  if (!r.boxes.empty())
+    out += "- ground truth from boxes (`" + r.boxes +
+           "`): G = the pixels inside the boxes valid in the window\n";
   if (r.interrupted) out += "- **interrupted**: the sequences finished before Ctrl-C only\n";
-  out +=
-      "\nIoU of the pixels with output spikes (steps starting in the window) against the "
-      "pixels with moving-object events, per window from each sequence's first event (the "
-      "partial last window dropped); mean ± std over all scored windows of a dataset; "
-      "detection = 0-MMS. Windows without moving-object events are skipped (counted). See "
-      "docs/evaluation.md.\n\n";
+  const std::string g = r.boxes.empty() ? "pixels with moving-object events"
+                                        : "pixels inside the boxes valid in the window";
+  out += "\nIoU of the pixels with output spikes (steps starting in the window) against the " + g +
+         ", per window from each sequence's first event (the partial last window dropped); mean ± "
+         "std over all scored windows of a dataset; detection = 0-MMS. Windows without moving "
+         "objects are skipped (counted). See docs/evaluation.md.\n\n";
   out += results_table(r);
   out += "\n## Per sequence\n\n";
   const TextTable t = sequence_table(r);

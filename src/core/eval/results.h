@@ -67,6 +67,7 @@ struct EvalResults {
   std::vector<int64_t> kalman_us;  // --kalman lengths
   int label_tolerance_steps = 3;   // the runtime's label window beyond its latency
   bool gate_events = false;        // P ∩ E (EvalOptions::gate_events)
+  std::string boxes;               // the boxes file giving G (EvalOptions::boxes); "" if none
   std::vector<ModelResult> models;
 };
 

@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,9 @@ struct SequenceScoreOptions {
   int64_t capture_window_us = 0;
   // P ∩ E (WindowScorer::gate_by_events): predictions count only at pixels with events.
   bool gate_events = false;
+  // Box ground truth (WindowScorer::use_boxes): G = box pixels. The sequence's labels must
+  // then come from the same boxes (BoxTruth::label), for the event precision and recall.
+  std::shared_ptr<const BoxTruth> boxes;
   std::vector<int64_t> capture_windows;
 };
 

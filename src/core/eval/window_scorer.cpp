@@ -39,6 +39,12 @@ WindowScorer::WindowScorer(SensorSize sensor, std::vector<int64_t> windows_us,
   scores_.resize(all.size());
 }
 
+void WindowScorer::use_boxes(std::shared_ptr<const BoxTruth> boxes) {
+  if (have_origin_) fail("window scorer", "", "use_boxes must come before the first events");
+  if (boxes) boxes->check_sensor(sensor_);
+  boxes_ = std::move(boxes);
+}
+
 void WindowScorer::gate_by_events(bool on) {
   if (have_origin_) fail("window scorer", "", "gate_by_events must come before the first events");
   gate_ = on;
@@ -59,7 +65,7 @@ std::vector<uint8_t>& WindowScorer::mask_of(std::map<int64_t, std::vector<uint8_
 
 void WindowScorer::add_events(const EventStream& c) {
   if (c.empty() || finished_) return;
-  if (!c.has_labels())
+  if (!c.has_labels() && !boxes_)
     fail("window scorer", "",
          "scoring needs labelled events (label = object id, 0 = background), e.g. from "
          "`spikems simulate`");
@@ -71,14 +77,15 @@ void WindowScorer::add_events(const EventStream& c) {
     const int64_t t = c.t[i];
     if (t < last_t_) fail_at_event("window scorer", events_seen_ + i, "time goes back");
     last_t_ = t;
-    if (c.label[i] == 0 && !any_filter_ && !gate_) continue;
+    const bool moving = !boxes_ && c.label[i] != 0;  // with boxes, G comes from them (score)
+    if (!moving && !any_filter_ && !gate_) continue;
     if (c.x[i] >= sensor_.width || c.y[i] >= sensor_.height)
       fail_at_event("window scorer", events_seen_ + i, "pixel outside the sensor");
     const size_t px = size_t(c.y[i]) * size_t(sensor_.width) + c.x[i];
     if (any_filter_ || gate_)
       for (PerLength& l : lengths_)
         if (l.filter || gate_) mask_of(l.e, (t - origin_) / l.window_us)[px] = 1;
-    if (c.label[i] == 0) continue;
+    if (!moving) continue;
     for (PerLength& l : lengths_) {
       const int64_t k = (t - origin_) / l.window_us;
       if (k != l.g_index) {  // events are time-ordered: the window changes rarely
@@ -138,6 +145,10 @@ void WindowScorer::score_ready(size_t i) {
 
 void WindowScorer::score(size_t i, int64_t k) {
   PerLength& l = lengths_[i];
+  if (boxes_) {  // G = box pixels; a window without a valid box keeps an empty G (skipped)
+    const int64_t t0 = origin_ + k * l.window_us;
+    boxes_->fill_window(t0, t0 + l.window_us, mask_of(l.g, k), sensor_);
+  }
   auto g = l.g.find(k);
   auto p = l.p.find(k);
   MaskCounts c;  // no G: skipped by WindowScores whatever was predicted

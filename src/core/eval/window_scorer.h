@@ -6,7 +6,8 @@
 // holds (frames of frame_us() = the gcd of the lengths, so every window is a whole number of
 // frames; a frame holds the output spikes of the steps whose start lies in it, i.e. only what
 // the network said by the window's end). G = pixels with input events labelled != 0 in the
-// window. Each window goes through count_masks into one WindowScores per length (windows with
+// window, or with use_boxes() the pixels inside the boxes valid in the window (boxes.h). Each
+// window goes through count_masks into one WindowScores per length (windows with
 // an empty G are skipped and counted there).
 #pragma once
 
@@ -15,6 +16,7 @@
 #include <memory>
 #include <vector>
 
+#include "core/eval/boxes.h"
 #include "core/eval/metrics.h"
 #include "core/events/event_stream.h"
 #include "core/runtime/mask_accumulator.h"
@@ -80,6 +82,11 @@ class WindowScorer {
   // BRIEF.md's P is every pixel with an output spike.
   void gate_by_events(bool on);
 
+  // Box ground truth (call before the first events; null: off): G of each window = the pixels
+  // inside the boxes valid in it, instead of the pixels of labelled events; events then need
+  // no labels here. The boxes must fit the sensor (BoxTruth::check_sensor).
+  void use_boxes(std::shared_ptr<const BoxTruth> boxes);
+
   // One per length, in the order given: the plain lengths, then the filtered ones.
   const std::vector<WindowScores>& scores() const { return scores_; }
 
@@ -122,8 +129,9 @@ class WindowScorer {
   std::vector<CapturedWindow> captured_;
   std::vector<uint8_t> filtered_p_;  // scratch: P handed to a filter
   bool any_filter_ = false;
-  bool gate_ = false;             // P ∩ E for the plain lengths
-  std::vector<uint8_t> gated_p_;  // scratch
+  bool gate_ = false;                      // P ∩ E for the plain lengths
+  std::shared_ptr<const BoxTruth> boxes_;  // G from boxes when set
+  std::vector<uint8_t> gated_p_;           // scratch
 };
 
 // Per-event confusion counts (metrics.h) of one sequence, kept per frame of frame_us from the
