@@ -243,6 +243,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   c.seed = uint64_t(seed);
   b.bind("run", "threads", c.threads);
   b.bind("run", "device", c.device);
+  b.bind("run", "kernels", c.kernels);
   b.bind("run", "log_every", c.log_every);
   b.bind("run", "val_every", c.val_every);
   b.bind("run", "checkpoint_every", c.checkpoint_every);
@@ -300,6 +301,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.warmup_steps < 0) b.bad("optim", "warmup_steps", "must not be negative");
   if (c.step_every < 1) b.bad("optim", "step_every", "must be at least 1");
   one_of(b, "run", "device", c.device, {"cpu", "cuda"});
+  one_of(b, "run", "kernels", c.kernels, {"auto", "sparse", "dense"});
   if (c.threads < 0) b.bad("run", "threads", "must not be negative");
   for (auto [k, v] : {std::pair{"log_every", c.log_every},
                       {"val_every", c.val_every},
