@@ -108,7 +108,8 @@ TEST(SparseKernels, SynapseMatchesDenseOnEveryLayerGeometryDouble) {
   torch::manual_seed(2);
   for (bool padded : {true, false})
     for (Discretisation d : {Discretisation::FIR, Discretisation::IIR})
-      for (const Case& c : network_layers(padded, d)) compare_synapse(c, 0.05, torch::kDouble, 1e-11);
+      for (const Case& c : network_layers(padded, d))
+        compare_synapse(c, 0.05, torch::kDouble, 1e-11);
 }
 
 // A hand-counted case: one spike at (t=0, c=0, y=2, x=2) through a 1->1 stride-2 conv with
@@ -148,7 +149,8 @@ TEST(SparseKernels, SilentInputGivesZeroPotentialAndZeroWeightGradient) {
   const LayerSpec& l = spec.layers[3];  // transposed conv 64 -> 32
   torch::Tensor s = torch::zeros({5, 2, 64, 4, 4}, torch::requires_grad());
   torch::Tensor w = torch::randn({64, 32, 3, 3}, torch::requires_grad());
-  torch::Tensor u = sparse_synapse_psp(s, w, SynapseGeometry::of(l), TemporalKernel::srm(l, 1.0), 1.0);
+  torch::Tensor u =
+      sparse_synapse_psp(s, w, SynapseGeometry::of(l), TemporalKernel::srm(l, 1.0), 1.0);
   EXPECT_EQ(u.sizes(), (std::vector<int64_t>{5, 2, 32, 8, 8}));
   EXPECT_EQ(u.abs().sum().item<double>(), 0.0);
   (u * torch::randn(u.sizes())).sum().backward();

@@ -61,12 +61,6 @@ Taps make_taps(int64_t in, int64_t out, int64_t k, int64_t stride, int64_t pad, 
   return t;
 }
 
-// The frames are dealt to the chunks round-robin: activity changes over time (the warm-up), so
-// contiguous ranges of time steps would load the threads unevenly.
-int64_t chunk_count(int64_t frames) {
-  return std::max<int64_t>(1, std::min<int64_t>(frames, at::get_num_threads()));
-}
-
 // Nonzero entries of each frame of x [F, M]: flat index within the frame and value; frame f owns
 // [offsets[f], offsets[f+1]).
 template <typename S>
@@ -97,65 +91,165 @@ void find_nonzeros(const S* x, int64_t F, int64_t M, std::vector<int64_t>& offse
   });
 }
 
-// out[f] (channels last) += v * wt[ci, ky, kx, :] for every nonzero (ci, y, x, v) of frame f.
+// The nonzeros of one frame and the tables that map them to output positions.
 template <typename S>
-void scatter(const int64_t* offsets, const int32_t* index, const S* value, const S* wt, S* out,
-             int64_t F, const Frame& g, const Taps& rows, const Taps& cols) {
-  const int64_t nchunks = chunk_count(F), hw = g.h * g.w, co = g.co;
-  at::parallel_for(0, nchunks, 1, [&](int64_t c0, int64_t c1) {
-    for (int64_t c = c0; c < c1; ++c)
-      for (int64_t f = c; f < F; f += nchunks) {
-        S* of = out + f * g.ho * g.wo * co;
-        for (int64_t n = offsets[f]; n < offsets[f + 1]; ++n) {
-          const int64_t m = index[n], ci = m / hw, y = (m % hw) / g.w, x = m % g.w;
-          const S v = value[n];
-          for (int32_t r = rows.begin[size_t(y)]; r < rows.begin[size_t(y + 1)]; ++r) {
-            const auto [oy, ky] = rows.pairs[size_t(r)];
-            for (int32_t q = cols.begin[size_t(x)]; q < cols.begin[size_t(x + 1)]; ++q) {
-              const auto [ox, kx] = cols.pairs[size_t(q)];
-              S* __restrict o = of + (int64_t(oy) * g.wo + ox) * co;
-              const S* __restrict w = wt + ((ci * g.k + ky) * g.k + kx) * co;
-              for (int64_t j = 0; j < co; ++j) o[j] += v * w[j];
-            }
-          }
-        }
+struct Nonzeros {
+  const int64_t* offsets;
+  const int32_t* index;
+  const S* value;
+};
+
+// Calls fn(v, ci, ky, kx, out_pixel) for every nonzero of frame f and every tap it reaches
+// (out_pixel = oy * W_out + ox).
+template <typename S, typename Fn>
+inline void for_each_tap(const Nonzeros<S>& nz, int64_t f, const Frame& g, const Taps& rows,
+                         const Taps& cols, Fn&& fn) {
+  const int64_t hw = g.h * g.w;
+  for (int64_t n = nz.offsets[f]; n < nz.offsets[f + 1]; ++n) {
+    const int64_t m = nz.index[n], ci = m / hw, y = (m % hw) / g.w, x = m % g.w;
+    const S v = nz.value[n];
+    for (int32_t r = rows.begin[size_t(y)]; r < rows.begin[size_t(y + 1)]; ++r) {
+      const auto [oy, ky] = rows.pairs[size_t(r)];
+      for (int32_t q = cols.begin[size_t(x)]; q < cols.begin[size_t(x + 1)]; ++q) {
+        const auto [ox, kx] = cols.pairs[size_t(q)];
+        fn(v, ci, ky, kx, int64_t(oy) * g.wo + ox);
       }
-  });
+    }
+  }
 }
 
-// dwt[ci, ky, kx, :] = sum over nonzeros (f, ci, y, x, v) and their taps of v * grad[f, oy, ox, :]
-// (grad channels last). One accumulator per chunk, summed in chunk order.
+// Forward, fused per sample b (samples in parallel), time ascending:
+//   c = scatter of frame (t, b) into a channels-last frame buffer (the weight column of a tap
+//       is C_out contiguous values: a vectorised axpy), then
+//   u[t, b] = Ts * (eps * c)[t], written once in the standard layout [C_out, H_out, W_out].
+// IIR kernels keep their O(1) state per neuron; FIR kernels keep the last K frames of c.
+// No output-sized temporaries, so no zero-fill or transpose passes over the whole tensor.
 template <typename S>
-void gather_weight_grad(const int64_t* offsets, const int32_t* index, const S* value,
-                        const S* grad, S* dwt, int64_t F, const Frame& g, const Taps& rows,
-                        const Taps& cols) {
-  const int64_t nchunks = chunk_count(F), hw = g.h * g.w, co = g.co;
-  const int64_t wsize = g.ci * g.k * g.k * co;
-  std::vector<S> acc(size_t(nchunks * wsize), S(0));
-  at::parallel_for(0, nchunks, 1, [&](int64_t c0, int64_t c1) {
-    for (int64_t c = c0; c < c1; ++c) {
-      S* dw = acc.data() + c * wsize;
-      for (int64_t f = c; f < F; f += nchunks) {
-        const S* gf = grad + f * g.ho * g.wo * co;
-        for (int64_t n = offsets[f]; n < offsets[f + 1]; ++n) {
-          const int64_t m = index[n], ci = m / hw, y = (m % hw) / g.w, x = m % g.w;
-          const S v = value[n];
-          for (int32_t r = rows.begin[size_t(y)]; r < rows.begin[size_t(y + 1)]; ++r) {
-            const auto [oy, ky] = rows.pairs[size_t(r)];
-            for (int32_t q = cols.begin[size_t(x)]; q < cols.begin[size_t(x + 1)]; ++q) {
-              const auto [ox, kx] = cols.pairs[size_t(q)];
-              const S* __restrict gr = gf + (int64_t(oy) * g.wo + ox) * co;
-              S* __restrict w = dw + ((ci * g.k + ky) * g.k + kx) * co;
-              for (int64_t j = 0; j < co; ++j) w[j] += v * gr[j];
+void forward_fused(const Nonzeros<S>& nz, const S* wt, S* u, int64_t T, int64_t B, const Frame& g,
+                   const Taps& rows, const Taps& cols, const TemporalKernel& k, S scale) {
+  const int64_t P = g.ho * g.wo, co = g.co, N = co * P;
+  const bool fir = k.form == TemporalKernel::Form::FIR;
+  const int64_t taps = fir ? int64_t(k.taps.size()) : 0;
+  const int64_t K = fir ? std::max<int64_t>(1, std::min<int64_t>(taps, T)) : 0;
+  const S a = S(k.decay), gain = S(scale * k.gain);
+  at::parallel_for(0, B, 1, [&](int64_t b0, int64_t b1) {
+    std::vector<S> cbuf(static_cast<size_t>(N)), q(fir ? 0 : size_t(N)), r(fir ? 0 : size_t(N)),
+        hist(size_t(K * N));
+    for (int64_t b = b0; b < b1; ++b) {
+      std::fill(q.begin(), q.end(), S(0));
+      std::fill(r.begin(), r.end(), S(0));
+      for (int64_t t = 0; t < T; ++t) {
+        const int64_t f = t * B + b;
+        std::fill(cbuf.begin(), cbuf.end(), S(0));
+        for_each_tap(nz, f, g, rows, cols, [&](S v, int64_t ci, int64_t ky, int64_t kx, int64_t p) {
+          S* __restrict o = cbuf.data() + p * co;
+          const S* __restrict w = wt + ((ci * g.k + ky) * g.k + kx) * co;
+          for (int64_t j = 0; j < co; ++j) o[j] += v * w[j];
+        });
+        S* __restrict y = u + f * N;
+        if (fir) {
+          // hist row t % K = c[t] in the standard layout; y = scale * sum_i h[i] c[t - i].
+          S* __restrict cur = hist.data() + (t % K) * N;
+          for (int64_t c = 0; c < co; ++c)
+            for (int64_t p = 0; p < P; ++p) cur[c * P + p] = cbuf[size_t(p * co + c)];
+          for (int64_t n = 0; n < N; ++n) y[n] = S(0);
+          for (int64_t i = 0; i < taps && i < K && i <= t; ++i) {
+            const S h = S(k.taps[size_t(i)]);
+            if (h == S(0)) continue;
+            const S* __restrict xr = hist.data() + ((t - i) % K) * N;
+            for (int64_t n = 0; n < N; ++n) y[n] += h * xr[n];
+          }
+          for (int64_t n = 0; n < N; ++n) y[n] *= scale;
+        } else {
+          S* __restrict qp = q.data();
+          S* __restrict rp = r.data();
+          for (int64_t c = 0; c < co; ++c) {
+            const S* __restrict xc = cbuf.data() + c;
+            S* __restrict yc = y + c * P;
+            S* __restrict qc = qp + c * P;
+            S* __restrict rc = rp + c * P;
+            if (k.form == TemporalKernel::Form::Alpha) {
+              for (int64_t p = 0; p < P; ++p) {
+                rc[p] = a * (rc[p] + qc[p]);
+                qc[p] = a * qc[p] + xc[p * co];
+                yc[p] = gain * rc[p];
+              }
+            } else {  // DelayedExp
+              for (int64_t p = 0; p < P; ++p) {
+                yc[p] = gain * qc[p];
+                qc[p] = a * qc[p] + xc[p * co];
+              }
             }
           }
         }
       }
     }
   });
+}
+
+// Backward, fused per sample b, time descending:
+//   gc[t, b] = Ts * (eps^T * gu)[t]   (the filter run backwards; written to `gc` when the input
+//                                      gradient needs it, standard layout)
+//   dwt[ci, ky, kx, :] += v * gc[t, b, :, oy, ox] for the frame's nonzeros (from a channels-last
+//                                      copy of the frame, so the gather is a vectorised axpy).
+// One weight accumulator per sample, summed in sample order (deterministic).
+template <typename S>
+void backward_fused(const Nonzeros<S>& nz, const S* gu, S* gc, S* dwt, int64_t T, int64_t B,
+                    const Frame& g, const Taps& rows, const Taps& cols, const TemporalKernel& k,
+                    S scale) {
+  const int64_t P = g.ho * g.wo, co = g.co, N = co * P;
+  const int64_t wsize = g.ci * g.k * g.k * co;
+  const bool fir = k.form == TemporalKernel::Form::FIR;
+  const int64_t K = fir ? int64_t(k.taps.size()) : 0;
+  const S a = S(k.decay), gain = S(scale * k.gain);
+  std::vector<S> acc(size_t(B * wsize), S(0));
+  at::parallel_for(0, B, 1, [&](int64_t b0, int64_t b1) {
+    std::vector<S> frame(static_cast<size_t>(N)), cl(static_cast<size_t>(N)),
+        q(fir ? 0 : size_t(N)), r(fir ? 0 : size_t(N));
+    for (int64_t b = b0; b < b1; ++b) {
+      std::fill(q.begin(), q.end(), S(0));
+      std::fill(r.begin(), r.end(), S(0));
+      S* dw = acc.data() + b * wsize;
+      for (int64_t t = T - 1; t >= 0; --t) {
+        const int64_t f = t * B + b;
+        S* __restrict y = gc ? gc + f * N : frame.data();
+        const S* __restrict x = gu + f * N;
+        if (fir) {
+          for (int64_t n = 0; n < N; ++n) y[n] = S(0);
+          for (int64_t i = 0; i < K && t + i < T; ++i) {
+            const S h = S(k.taps[size_t(i)]);
+            if (h == S(0)) continue;
+            const S* __restrict xr = gu + ((t + i) * B + b) * N;
+            for (int64_t n = 0; n < N; ++n) y[n] += h * xr[n];
+          }
+          for (int64_t n = 0; n < N; ++n) y[n] *= scale;
+        } else if (k.form == TemporalKernel::Form::Alpha) {
+          for (int64_t n = 0; n < N; ++n) {
+            r[size_t(n)] = a * (r[size_t(n)] + q[size_t(n)]);
+            q[size_t(n)] = a * q[size_t(n)] + x[n];
+            y[n] = gain * r[size_t(n)];
+          }
+        } else {
+          for (int64_t n = 0; n < N; ++n) {
+            y[n] = gain * q[size_t(n)];
+            q[size_t(n)] = a * q[size_t(n)] + x[n];
+          }
+        }
+        if (nz.offsets[f] == nz.offsets[f + 1] || dwt == nullptr) continue;
+        for (int64_t c = 0; c < co; ++c)
+          for (int64_t p = 0; p < P; ++p) cl[size_t(p * co + c)] = y[c * P + p];
+        for_each_tap(nz, f, g, rows, cols, [&](S v, int64_t ci, int64_t ky, int64_t kx, int64_t p) {
+          const S* __restrict gr = cl.data() + p * co;
+          S* __restrict w = dw + ((ci * g.k + ky) * g.k + kx) * co;
+          for (int64_t j = 0; j < co; ++j) w[j] += v * gr[j];
+        });
+      }
+    }
+  });
+  if (dwt == nullptr) return;
   for (int64_t i = 0; i < wsize; ++i) {
     S sum = S(0);
-    for (int64_t c = 0; c < nchunks; ++c) sum += acc[size_t(c * wsize + i)];
+    for (int64_t b = 0; b < B; ++b) sum += acc[size_t(b * wsize + i)];
     dwt[i] = sum;
   }
 }
@@ -203,8 +297,18 @@ torch::Tensor taps_to_weight(const torch::Tensor& wt, bool transposed) {
 
 void save_layout(AutogradContext* ctx, const Layout& l) {
   const Frame& f = l.frame;
-  ctx->saved_data["dims"] = std::vector<int64_t>{l.T,  l.B,  f.ci, f.h,     f.w,       f.co,
-                                                 f.ho, f.wo, f.k,  l.stride, l.pad, l.out_pad,
+  ctx->saved_data["dims"] = std::vector<int64_t>{l.T,
+                                                 l.B,
+                                                 f.ci,
+                                                 f.h,
+                                                 f.w,
+                                                 f.co,
+                                                 f.ho,
+                                                 f.wo,
+                                                 f.k,
+                                                 l.stride,
+                                                 l.pad,
+                                                 l.out_pad,
                                                  int64_t(l.transposed)};
 }
 Layout load_layout(AutogradContext* ctx) {
@@ -240,7 +344,7 @@ class SparseSynapseFunction : public torch::autograd::Function<SparseSynapseFunc
     const torch::Tensor wt = weight_to_taps(weight, l.transposed);
     const TapTables taps(l);
     torch::Tensor offsets = torch::empty({F + 1}, torch::kInt64), index, value;
-    torch::Tensor c = torch::zeros({l.T, l.B, g.ho, g.wo, g.co}, s.options());
+    torch::Tensor u = torch::empty({l.T, l.B, g.co, g.ho, g.wo}, s.options());
     AT_DISPATCH_FLOATING_TYPES(s.scalar_type(), "sparse_synapse_forward", [&] {
       std::vector<int64_t> off;
       std::vector<int32_t> idx;
@@ -249,12 +353,10 @@ class SparseSynapseFunction : public torch::autograd::Function<SparseSynapseFunc
       std::copy(off.begin(), off.end(), offsets.data_ptr<int64_t>());
       index = torch::from_blob(idx.data(), {int64_t(idx.size())}, torch::kInt32).clone();
       value = torch::from_blob(val.data(), {int64_t(val.size())}, s.scalar_type()).clone();
-      scatter<scalar_t>(off.data(), idx.data(), val.data(), wt.data_ptr<scalar_t>(),
-                        c.data_ptr<scalar_t>(), F, g, taps.rows, taps.cols);
+      const Nonzeros<scalar_t> nz{off.data(), idx.data(), val.data()};
+      forward_fused<scalar_t>(nz, wt.data_ptr<scalar_t>(), u.data_ptr<scalar_t>(), l.T, l.B, g,
+                              taps.rows, taps.cols, eps, scalar_t(ts));
     });
-    // The filter is per neuron, so it runs on the channels-last layout as well.
-    torch::Tensor u = apply_temporal_kernel_cpu(c.view({l.T, -1}), eps, ts, false);
-    u = u.view({l.T, l.B, g.ho, g.wo, g.co}).permute({0, 1, 4, 2, 3}).contiguous();
     ctx->save_for_backward({offsets, index, value, weight});
     save_layout(ctx, l);
     save_kernel(ctx, "eps", eps);
@@ -272,22 +374,24 @@ class SparseSynapseFunction : public torch::autograd::Function<SparseSynapseFunc
     const double ts = ctx->saved_data["ts"].toDouble();
     const int64_t F = l.T * l.B;
     torch::Tensor gu = grads[0].to(value.scalar_type()).contiguous();
-    // dL/d(W (*) s) = eps^T * dL/du.
-    torch::Tensor gc = apply_temporal_kernel_cpu(gu.view({l.T, -1}), eps, ts, true)
-                           .view({F, g.co, g.ho, g.wo});
-    torch::Tensor gw, gs;
-    if (ctx->needs_input_grad(1)) {
-      const torch::Tensor gcl = gc.permute({0, 2, 3, 1}).contiguous();
-      torch::Tensor dwt = torch::empty({g.ci, g.k, g.k, g.co}, value.options());
+    const bool need_w = ctx->needs_input_grad(1), need_s = ctx->needs_input_grad(0);
+    // gc = dL/d(W (*) s) = eps^T * dL/du, kept whole only for the input gradient.
+    torch::Tensor gc, dwt, gw, gs;
+    if (need_s) gc = torch::empty({F, g.co, g.ho, g.wo}, value.options());
+    if (need_w) dwt = torch::empty({g.ci, g.k, g.k, g.co}, value.options());
+    if (need_w || need_s) {
       const TapTables taps(l);
-      AT_DISPATCH_FLOATING_TYPES(value.scalar_type(), "sparse_synapse_weight_grad", [&] {
-        gather_weight_grad<scalar_t>(offsets.data_ptr<int64_t>(), index.data_ptr<int32_t>(),
-                                     value.data_ptr<scalar_t>(), gcl.data_ptr<scalar_t>(),
-                                     dwt.data_ptr<scalar_t>(), F, g, taps.rows, taps.cols);
+      AT_DISPATCH_FLOATING_TYPES(value.scalar_type(), "sparse_synapse_backward", [&] {
+        const Nonzeros<scalar_t> nz{offsets.data_ptr<int64_t>(), index.data_ptr<int32_t>(),
+                                    value.data_ptr<scalar_t>()};
+        backward_fused<scalar_t>(nz, gu.data_ptr<scalar_t>(),
+                                 need_s ? gc.data_ptr<scalar_t>() : nullptr,
+                                 need_w ? dwt.data_ptr<scalar_t>() : nullptr, l.T, l.B, g,
+                                 taps.rows, taps.cols, eps, scalar_t(ts));
       });
-      gw = taps_to_weight(dwt, l.transposed);
     }
-    if (ctx->needs_input_grad(0)) {
+    if (need_w) gw = taps_to_weight(dwt, l.transposed);
+    if (need_s) {
       // Every input position gets a gradient: the adjoint convolution, dense.
       if (l.transposed) {
         gs = torch::conv2d(gc, weight, {}, l.stride, l.pad);

@@ -59,7 +59,8 @@ struct TrainConfig {
   uint64_t seed = 1;
   int threads = 0;             // 0: all cores
   std::string device = "cpu";  // cpu | cuda
-  std::string kernels = "auto";  // auto | sparse | dense: synapse path (train/synapse/sparse_conv.h)
+  std::string kernels =
+      "auto";  // auto | sparse | dense: synapse path (train/synapse/sparse_conv.h)
   int log_every = 10, val_every = 100, checkpoint_every = 25, val_samples = 64, prefetch = 4;
   // Whole-sensor validation as `spikems eval` scores it (streaming runtime, continuous state,
   // causal windows) on the first val_full_s seconds of every val sequence; 0: off. When on, the
