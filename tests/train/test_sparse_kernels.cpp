@@ -266,3 +266,22 @@ TEST(SparseKernels, ConfigKeyAndNames) {
 
 }  // namespace
 }  // namespace spikems::train
+
+namespace spikems::train {
+namespace {
+
+// `spikems train --kernels` takes only the three names (CLI11 refuses others before any work).
+TEST(SparseKernels, TrainRefusesAnUnknownKernelsFlag) {
+  std::string out;
+  const int rc =
+      test::run_command(test::spikems_binary() + " train --kernels fast --config " +
+                            test::source_dir() + "/configs/train/default.toml --out /nonexistent",
+                        &out);
+  EXPECT_NE(rc, 0);
+  EXPECT_NE(out.find("--kernels"), std::string::npos) << out;
+  EXPECT_EQ(test::run_command(test::spikems_binary() + " train --help", &out), 0);
+  EXPECT_NE(out.find("--kernels"), std::string::npos) << out;
+}
+
+}  // namespace
+}  // namespace spikems::train
