@@ -12,7 +12,7 @@ struct Args {
   std::string config, out, resume;
   std::vector<std::string> set;
   int steps = 0, threads = -1;
-  std::string device;
+  std::string device, kernels;
   bool quiet = false;
   std::string command;
   spikems::train::DistFlags dist;
@@ -24,6 +24,7 @@ void run(const Args& a) {
   if (a.steps > 0) overrides.push_back("optim.steps=" + std::to_string(a.steps));
   if (a.threads >= 0) overrides.push_back("run.threads=" + std::to_string(a.threads));
   if (!a.device.empty()) overrides.push_back("run.device=\"" + a.device + "\"");
+  if (!a.kernels.empty()) overrides.push_back("run.kernels=\"" + a.kernels + "\"");
   TrainRunOptions ro;
   ro.dist = resolve_dist_options(a.dist);  // flags, then MASTER_ADDR, MASTER_PORT, RANK, WORLD_SIZE
   ro.progress = !a.quiet;
@@ -71,6 +72,10 @@ void add(CLI::App& app) {
       ->check(CLI::Range(0, 1024));
   cmd->add_option("--device", a->device, "cpu or cuda (run.device)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
+  cmd->add_option("--kernels", a->kernels,
+                  "synapse kernels (run.kernels): auto, sparse (scatter of the input spikes) or "
+                  "dense (LibTorch convolutions)")
+      ->check(CLI::IsMember({"auto", "sparse", "dense"}));
   cmd->add_flag("--quiet,-q", a->quiet, "no progress bar");
   // Data-parallel training, launched like torchrun (docs/training.md).
   cmd->add_option("--world-size", a->dist.world_size,

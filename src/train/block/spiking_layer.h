@@ -9,6 +9,7 @@
 #include "train/neuron/spike.h"
 #include "train/neuron/temporal_kernel.h"
 #include "train/synapse/conv.h"
+#include "train/synapse/sparse_conv.h"
 
 namespace spikems::train {
 
@@ -25,6 +26,8 @@ class SpikingLayerImpl : public torch::nn::Module {
   // The layer spec with the current weight and delay values.
   LayerSpec to_spec() const;
   void set_gradient(SpikeGradient g) { spike_.gradient = g; }
+  // Dense (default): psp then LibTorch conv; Sparse / Auto: train/synapse/sparse_conv.h.
+  void set_kernels(KernelPath k) { kernels_ = k; }
   void enable_delay(bool on);  // adds a zero-initialised learnable delay if absent
 
   torch::Tensor weight, delay;  // delay undefined when the layer has none
@@ -35,6 +38,7 @@ class SpikingLayerImpl : public torch::nn::Module {
   TemporalKernel eps_;
   SpikeParams spike_;
   SynapseGeometry geom_;
+  KernelPath kernels_ = KernelPath::Dense;
 };
 TORCH_MODULE(SpikingLayer);
 

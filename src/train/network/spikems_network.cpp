@@ -37,6 +37,10 @@ void SpikeMSNetworkImpl::set_gradient(SpikeGradient g) {
   for (auto& l : layers_) l->set_gradient(g);
 }
 
+void SpikeMSNetworkImpl::set_kernels(KernelPath k) {
+  for (auto& l : layers_) l->set_kernels(k);
+}
+
 std::vector<torch::Tensor> forward_all_layers(const ModelSpec& spec, const torch::Tensor& input) {
   TORCH_CHECK(input.dim() == 5, "forward_all_layers: input must be [T, B, C, H, W]");
   torch::NoGradGuard no_grad;

@@ -28,6 +28,7 @@ class SpikeMSNetworkImpl : public torch::nn::Module {
   // The spec with the current parameter values (for save_model).
   ModelSpec to_spec() const;
   void set_gradient(SpikeGradient g);
+  void set_kernels(KernelPath k);  // every layer (SpikingLayerImpl::set_kernels)
   size_t size() const { return layers_.size(); }
   SpikingLayer& layer(size_t k) { return layers_[k]; }
 

@@ -244,6 +244,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("run", "threads", c.threads);
   b.bind("run", "device", c.device);
   b.bind("run", "neuron_kernels", c.neuron_kernels);
+  b.bind("run", "kernels", c.kernels);
   b.bind("run", "log_every", c.log_every);
   b.bind("run", "val_every", c.val_every);
   b.bind("run", "checkpoint_every", c.checkpoint_every);
@@ -303,6 +304,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.step_every < 1) b.bad("optim", "step_every", "must be at least 1");
   one_of(b, "run", "device", c.device, {"cpu", "cuda"});
   one_of(b, "run", "neuron_kernels", c.neuron_kernels, {"fused", "ops"});
+  one_of(b, "run", "kernels", c.kernels, {"auto", "sparse", "dense"});
   if (c.threads < 0) b.bad("run", "threads", "must not be negative");
   if (c.loader_threads < 0) b.bad("run", "loader_threads", "must not be negative");
   for (auto [k, v] : {std::pair{"log_every", c.log_every},

@@ -61,6 +61,8 @@ struct TrainConfig {
   std::string device = "cpu";  // cpu | cuda
   // Neuron dynamics: fused kernels (CPU; CUDA where built) or per-step tensor ops (reference).
   std::string neuron_kernels = "fused";  // fused | ops
+  std::string kernels =
+      "auto";  // auto | sparse | dense: synapse path (train/synapse/sparse_conv.h)
   int log_every = 10, val_every = 100, checkpoint_every = 25, val_samples = 64, prefetch = 4;
   // Threads making samples (0: 1 on the CPU, whose cores train; most cores for a GPU).
   int loader_threads = 0;

@@ -323,6 +323,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     net.ann = Ann2dNetwork(spec);
   } else {
     net.snn = SpikeMSNetwork(spec, grad);
+    net.snn->set_kernels(parse_kernel_path(c.kernels));
     if (c.delays)
       for (size_t k = 0; k < net.size(); ++k) net.snn->layer(k)->enable_delay(true);
   }
