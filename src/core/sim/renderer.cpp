@@ -15,8 +15,8 @@
 #include <cstring>
 
 #include "core/sim/fast_math.h"
-#include "core/util/parallel.h"
 #include "core/util/error.h"
+#include "core/util/parallel.h"
 
 // One clone per instruction set for the row loops (chosen at load time); IEEE operations
 // without contraction round alike in every clone, so the output does not depend on the CPU.
