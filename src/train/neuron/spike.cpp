@@ -21,10 +21,8 @@ constexpr int64_t kGrain = 512;
 // Which fused kernel takes a tensor: none (tensor ops), the CPU one or the CUDA one.
 enum class Fused { None, Cpu, Cuda };
 Fused fused_for(const torch::Tensor& t, const SpikeParams& p, bool use_fused) {
-  if (!use_fused || t.numel() == 0) return Fused::None;
-  if (t.device().is_cpu()) return Fused::Cpu;
-  if (t.is_cuda() && cuda_kernels_built() && cuda_kernel_fits(p.refractory)) return Fused::Cuda;
-  return Fused::None;
+  if (!use_fused || !fused_kernel_exists(t, p.refractory)) return Fused::None;
+  return t.device().is_cpu() ? Fused::Cpu : Fused::Cuda;
 }
 
 // ---- CPU kernels: time loop outside, neurons of one chunk contiguous inside ----

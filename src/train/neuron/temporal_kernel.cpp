@@ -180,10 +180,14 @@ torch::Tensor apply_temporal_kernel_cpu(const torch::Tensor& x_in, const Tempora
   return y;
 }
 
-bool fused_temporal_kernel_for(const torch::Tensor& x, const TemporalKernel& k) {
-  if (neuron_kernels() != NeuronKernels::Fused || x.numel() == 0) return false;
+bool fused_kernel_exists(const torch::Tensor& x, const TemporalKernel& k) {
+  if (x.numel() == 0) return false;
   if (x.device().is_cpu()) return true;
   return x.is_cuda() && cuda_kernels_built() && cuda_kernel_fits(k);
+}
+
+bool fused_temporal_kernel_for(const torch::Tensor& x, const TemporalKernel& k) {
+  return neuron_kernels() == NeuronKernels::Fused && fused_kernel_exists(x, k);
 }
 
 torch::Tensor apply_temporal_kernel_fused(const torch::Tensor& x, const TemporalKernel& k,

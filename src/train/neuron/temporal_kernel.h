@@ -47,6 +47,9 @@ torch::Tensor apply_temporal_kernel_cpu(const torch::Tensor& x, const TemporalKe
 // Whether a fused kernel (CPU, or CUDA where built) filters x, given the process-wide choice
 // (kernel_choice.h); and that kernel, on [T, N] tensors. No autograd.
 bool fused_temporal_kernel_for(const torch::Tensor& x, const TemporalKernel& k);
+// Whether a fused kernel exists for x's device and k at all (CPU: always; CUDA: where built and
+// k's taps fit), whatever the process-wide choice.
+bool fused_kernel_exists(const torch::Tensor& x, const TemporalKernel& k);
 torch::Tensor apply_temporal_kernel_fused(const torch::Tensor& x, const TemporalKernel& k,
                                           double scale, bool reverse);
 
