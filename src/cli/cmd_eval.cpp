@@ -19,7 +19,7 @@ struct Args {
   std::string windows = "20,100", split = "test", out, kalman, boxes;
   std::vector<std::string> models, data, baselines;
   int threads = 1;
-  bool iir = false, quiet = false, gate_events = false;
+  bool iir = false, quiet = false, gate_events = false, static_scene = false;
   double max_seconds = 0;
 };
 
@@ -40,6 +40,7 @@ void run(const Args& a) {
   o.iir = a.iir;
   o.gate_events = a.gate_events;
   o.boxes = a.boxes;
+  o.static_scene = a.static_scene;
   o.max_seconds = a.max_seconds;
   o.progress = !a.quiet;
   o.command_line = cli::invoked_command();
@@ -84,7 +85,9 @@ void add(CLI::App& app) {
       "  spikems eval --model m.safetensors --data data/mod --windows 1:25 --kalman 3 --out o   "
       "(incremental prediction: filtered 3 ms windows beside the plain ones)\n"
       "  spikems eval --model m.safetensors --data ball.txt --boxes ball_boxes.csv --windows 10 "
-      "(box ground truth, EED style)");
+      "(box ground truth, EED style)\n"
+      "  spikems eval --model m.safetensors --data poster.npz --static-scene --windows 20   "
+      "(a static scene: the share of events called moving)");
   cmd->add_option("--model", a.models,
                   "Model file (.safetensors, spikems format); repeat to compare several "
                   "(default: the shipped model)");
@@ -114,6 +117,10 @@ void add(CLI::App& app) {
                   "Ground truth from bounding boxes (CSV: t_start_us,t_end_us,x0,y0,x1,y1[,id]; "
                   "corners inclusive) for the one recording given with --data, which then needs "
                   "no labels");
+  cmd->add_flag("--static-scene", a.static_scene,
+                "Every event of --data is background (a static scene filmed by a moving "
+                "camera; labels not needed, any ignored): read the share of events labelled "
+                "moving, column `moving %` (a false-positive check on real recordings)");
   cmd->add_flag("--gate-events", a.gate_events,
                 "Count predictions only at pixels with input events in the window (P ∩ E, as "
                 "per-event labels do; ANN-2D models are gated by construction)");

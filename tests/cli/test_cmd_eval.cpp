@@ -266,6 +266,7 @@ TEST_F(EvalCli, EventPrecisionRecallAndKalmanRows) {
         EXPECT_EQ(c["tn"], 0);
         EXPECT_DOUBLE_EQ(w["event_recall"].get<double>(), 100.0);
         EXPECT_NEAR(w["event_precision"].get<double>(), 100.0 * double(moving) / double(all), 1e-9);
+        EXPECT_DOUBLE_EQ(w["moving_share"].get<double>(), 100.0);
       } else {
         // Pass-all labels nearly every event moving (refractoriness may hide a few).
         EXPECT_GT(w["event_recall"].get<double>(), 90.0);
@@ -280,6 +281,60 @@ TEST_F(EvalCli, EventPrecisionRecallAndKalmanRows) {
   // A Kalman length must be whole steps too.
   EXPECT_EQ(run_command(eval("--data " + data() + " --kalman 2.5 --out " + o + "x"), &out), 1);
   EXPECT_NE(out.find("--kalman"), std::string::npos) << out;
+}
+
+// --static-scene: an unlabelled recording of a static scene; every event is background and the
+// score is the share of events each model labels moving.
+TEST_F(EvalCli, StaticSceneScoresTheShareOfEventsCalledMoving) {
+  const std::string rec = dir_ + "/static.txt";
+  {
+    std::ofstream f(rec);
+    f << "# sensor 64 48\n# time_unit us\n";
+    uint32_t h = 7;
+    // Scattered events, no labels: 4000 in ten whole 10 ms windows, the last one starts an 11th.
+    for (int i = 0; i <= 4000; ++i) {
+      h = h * 1664525u + 1013904223u;
+      f << i * 25 << " " << (h >> 8) % 64 << " " << (h >> 16) % 48 << " " << (h >> 30) % 2 << "\n";
+    }
+  }
+  save_model(dir_ + "/silent.safetensors", test::pointwise_model({0.f, 0.f, 0.f, 0.f}, "silent"));
+  const std::string o = dir_ + "/out_static";
+  std::string out;
+  ASSERT_EQ(
+      run_command(eval("--model " + dir_ + "/silent.safetensors --baseline all-events --data " +
+                       rec + " --static-scene --windows 10 --out " + o),
+                  &out),
+      0)
+      << out;
+  const auto j = nlohmann::json::parse(slurp(o + "/results.json"));
+  EXPECT_EQ(j["static_scene"], true);
+  ASSERT_EQ(j["models"].size(), 3u);  // pass-all, silent, the baseline
+  double share[3];
+  for (size_t i = 0; i < 3; ++i) {
+    const auto& w = j["models"][i]["datasets"][0]["windows"][0];
+    EXPECT_EQ(w["windows"], 0);  // nothing moves: no window has a G to score
+    EXPECT_EQ(w["skipped_windows"], 10);
+    const auto& c = w["event_counts"];
+    EXPECT_EQ(c["tp"], 0);
+    EXPECT_EQ(c["fn"], 0);
+    const double fp = c["fp"].get<double>(), tn = c["tn"].get<double>();
+    EXPECT_EQ(fp + tn, 4000.0);
+    share[i] = w["moving_share"].get<double>();
+    EXPECT_DOUBLE_EQ(share[i], 100.0 * fp / (fp + tn));
+  }
+  EXPECT_GT(share[0], 90.0);          // pass-all: (nearly) every event
+  EXPECT_DOUBLE_EQ(share[1], 0.0);    // silent: none
+  EXPECT_DOUBLE_EQ(share[2], 100.0);  // every event moving
+  EXPECT_NE(out.find("moving %"), std::string::npos) << out;
+  EXPECT_NE(slurp(o + "/results.md").find("static scene"), std::string::npos);
+  EXPECT_NE(slurp(o + "/results.csv").find(",moving_share\n"), std::string::npos);
+  // Without the flag the same file is refused for its missing labels; with boxes it is refused.
+  EXPECT_EQ(run_command(eval("--data " + rec + " --out " + o + "x"), &out), 1);
+  EXPECT_NE(out.find("no labels"), std::string::npos) << out;
+  std::ofstream(dir_ + "/b.csv") << "0,1000000,1,1,5,5\n";
+  EXPECT_EQ(run_command(eval("--data " + rec + " --static-scene --boxes " + dir_ + "/b.csv"), &out),
+            1);
+  EXPECT_NE(out.find("--static-scene"), std::string::npos) << out;
 }
 
 TEST_F(EvalCli, BadInputStopsWithAClearMessage) {

@@ -13,8 +13,8 @@
 namespace spikems {
 namespace {
 
-ModelSpec random_model(Discretisation d, uint32_t seed) {
-  ModelSpec m = spikems_architecture(true, d);
+ModelSpec random_model(Discretisation d, uint32_t seed, const std::vector<int>& widths) {
+  ModelSpec m = spikems_architecture(true, d, widths);
   std::mt19937 rng(seed);
   for (auto& l : m.layers) {
     std::normal_distribution<float> g(0.25f / float(l.in_channels),
@@ -79,8 +79,9 @@ Cmp compare_layer(const LayerSpec& l, double ts, const torch::Tensor& in, const 
   return r;
 }
 
-void check(Discretisation d, uint32_t seed, double near) {
-  ModelSpec m = random_model(d, seed);
+void check(Discretisation d, uint32_t seed, double near,
+           const std::vector<int>& widths = {16, 32, 64}) {
+  ModelSpec m = random_model(d, seed, widths);
   torch::manual_seed(seed);
   torch::Tensor input = (torch::rand({30, 1, 2, 24, 32}) < 0.05).to(torch::kFloat);
   auto layers = train::forward_all_layers(m, input);
@@ -123,6 +124,11 @@ TEST(RuntimeVsTorch, FirLayersMatch) {
 }
 TEST(RuntimeVsTorch, IirLayersMatch) {
   check(Discretisation::IIR, 22, 1e-4);
+}
+// model.channels: widths off the runtime's whole-vector fast path, and a fourth level.
+TEST(RuntimeVsTorch, OtherWidthsAndDepthMatch) {
+  check(Discretisation::IIR, 23, 1e-4, {8, 24, 40, 48});
+  check(Discretisation::FIR, 24, 1e-5, {12, 20});
 }
 
 }  // namespace

@@ -249,6 +249,17 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(msg({"loss.kind=hinge"}).find("loss.kind: \"hinge\" is not one of bce, spike, both"),
             std::string::npos);
   EXPECT_NE(msg({"model.init_rates=[0.1]"}).find("model.init_rates"), std::string::npos);
+  EXPECT_NE(msg({"model.channels=[16, 1.5]"}).find("model.channels: each level's channels"),
+            std::string::npos);
+  EXPECT_NE(msg({"model.channels=[]"}).find("model.channels: needs 1 to 6"), std::string::npos);
+  EXPECT_NE(msg({"model.channels=[8, 16]", "model.init_rates=[0.1, 0.1, 0.1, 0.1, 0.1, 0.1]"})
+                .find("model.init_rates: needs one rate per layer (4)"),
+            std::string::npos);
+  {  // Other widths: one default firing target per layer, 0.02 for the output.
+    TrainConfig w = load_train_config(config_path(), {"model.channels=[8, 16]"});
+    EXPECT_EQ(w.channels, (std::vector<int>{8, 16}));
+    EXPECT_EQ(w.init_rates, (std::vector<double>{0.03, 0.03, 0.03, 0.02}));
+  }
   EXPECT_NE(msg({"loss.output_floor=1.5"}).find("loss.output_floor: must lie in [0, 1)"),
             std::string::npos);
   EXPECT_NE(
@@ -295,6 +306,20 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(out.find("none: no such file or folder"), std::string::npos) << out;
   EXPECT_EQ(run_command(spikems_binary() + " train --resume " + dir + " 2>&1", &out), 1);
   EXPECT_NE(out.find("a `spikems train` run folder?"), std::string::npos) << out;
+}
+
+// Every recipe the repository ships parses, and the geometry it asks for is buildable.
+TEST(Trainer, ShippedConfigsParse) {
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(test::source_dir() + "/configs/train")) {
+    if (e.path().extension() != ".toml") continue;
+    SCOPED_TRACE(e.path().string());
+    TrainConfig c = load_train_config(e.path().string(), {});
+    EXPECT_EQ(c.init_rates.size(), 2 * c.channels.size());
+    EXPECT_NO_THROW(spikems_architecture(c.padded, Discretisation::IIR, c.channels));
+    ++n;
+  }
+  EXPECT_GE(n, 3);  // default, ann2d, deep
 }
 
 TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {

@@ -89,6 +89,8 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   // Box ground truth belongs to one recording: one file of boxes per --data would need a way
   // to pair them; one at a time keeps the command plain.
   std::shared_ptr<const BoxTruth> boxes;
+  if (opt.static_scene && !opt.boxes.empty())
+    fail("--static-scene", "", "a static scene has no moving objects: it takes no --boxes");
   if (!opt.boxes.empty()) {
     if (total != 1)
       fail("--boxes " + opt.boxes, "",
@@ -131,6 +133,7 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   so.boxes = boxes;
   r.boxes = opt.boxes;
   r.gate_events = opt.gate_events;
+  r.static_scene = opt.static_scene;
   r.label_tolerance_steps = so.label_tolerance_steps;
   so.max_us = opt.max_seconds > 0 ? int64_t(opt.max_seconds * 1e6 + 0.5) : 0;
   size_t done = 0;
@@ -147,7 +150,8 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
       const std::string name = fs::path(f).filename().string();
       bar.set_status(name + " loading");
       bar.update(done);
-      LabelledSequence seq = load_sequence(f, s.src.mask_dilation, !boxes);
+      LabelledSequence seq = load_sequence(f, s.src.mask_dilation, !boxes && !opt.static_scene);
+      if (opt.static_scene) seq.events.label.assign(seq.events.size(), 0);
       if (boxes) {  // the boxes replace any labels: moving = inside a box valid at its time
         boxes->check_sensor(seq.events.sensor);
         boxes->label(seq.events);

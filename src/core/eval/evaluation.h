@@ -31,6 +31,9 @@ struct EvalOptions {
   // A boxes file (boxes.h): G = box pixels and events moving when inside a valid box, for
   // one recording (one --data with one sequence); its events then need no labels.
   std::string boxes;
+  // Every event of the data is background (a static scene filmed by a moving camera): labels
+  // are not needed (any are ignored) and the score is the share of events labelled moving.
+  bool static_scene = false;
   double max_seconds = 0;    // > 0: only the first max_seconds of each sequence
   bool progress = false;     // progress bar on stderr
   std::string command_line;  // recorded in the results

@@ -1,5 +1,6 @@
 #include "core/eval/results.h"
 
+#include <algorithm>
 #include <cmath>
 #include <ctime>
 #include <filesystem>
@@ -118,6 +119,8 @@ nlohmann::ordered_json row_json(const WindowSummary& w, bool with_sequences) {
   };
   j["event_precision"] = pct(w.has_events && e.has_precision(), e.precision());
   j["event_recall"] = pct(w.has_events && e.has_recall(), e.recall());
+  j["moving_share"] = pct(w.has_events && e.total() > 0,
+                          double(e.tp + e.fp) / double(std::max<uint64_t>(e.total(), 1)));
   if (w.has_events)
     j["event_counts"] = {{"tp", e.tp}, {"fp", e.fp}, {"fn", e.fn}, {"tn", e.tn}};
   else
@@ -158,6 +161,9 @@ std::string csv_row(const std::string& level, const ModelResult& m, const Datase
          "," + std::to_string(e.tn);
   else
     r += ",,,,";
+  r += ",";
+  if (w.has_events && e.total() > 0)
+    r += fmt("%.4f", 100 * double(e.tp + e.fp) / double(e.total()));
   return r + "\n";
 }
 
@@ -192,9 +198,12 @@ std::vector<std::string> score_cells(const WindowSummary& w) {
   const EventCounts& e = w.events;
   std::string p = w.has_events && e.has_precision() ? fmt("%.1f", 100 * e.precision()) : "–";
   std::string rc = w.has_events && e.has_recall() ? fmt("%.1f", 100 * e.recall()) : "–";
-  if (w.windows == 0) return {"–", "–", p, rc};
+  std::string mv = w.has_events && e.total() > 0
+                       ? fmt("%.1f", 100 * double(e.tp + e.fp) / double(e.total()))
+                       : "–";
+  if (w.windows == 0) return {"–", "–", p, rc, mv};
   return {fmt("%.1f", w.iou_mean) + " ± " + fmt("%.1f", w.iou_std), fmt("%.1f", w.detection_rate),
-          p, rc};
+          p, rc, mv};
 }
 
 // "10", or "3 filtered" for a Kalman row.
@@ -227,6 +236,7 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
   j["interrupted"] = r.interrupted;
   j["gate_events"] = r.gate_events;
   j["boxes"] = r.boxes.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(r.boxes);
+  j["static_scene"] = r.static_scene;
   j["protocol"] = {
       {"window_start", "first event of each sequence"},
       {"partial_last_window", "dropped"},
@@ -234,14 +244,17 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
                          ? "pixels with input events in the window and an output spike at a step "
                            "whose start lies in the window (gate_events)"
                          : "pixels with an output spike at a step whose start lies in the window"},
-      {"truth", r.boxes.empty()
+      {"truth", r.static_scene ? "none: every event is background (static_scene)"
+                : r.boxes.empty()
                     ? "pixels with input events labelled moving (label != 0) in the window"
                     : "pixels inside the boxes (file `boxes`) valid at some time in the window; "
                       "an event is truly moving when it lies in a box valid at its time"},
       {"iou", "|P and G| / |P or G| per window; mean and population std over windows"},
       {"detection", "0-MMS: |P and G| > 0.5 |G| and |P and G| > |P - G|"},
       {"skipped", "windows whose G is empty are not scored, only counted"},
-      {"units", "iou, detection_rate, event_precision and event_recall in percent (0-100)"},
+      {"units",
+       "iou, detection_rate, event_precision, event_recall and moving_share in percent (0-100)"},
+      {"moving_share", "the share of all events the runtime labels moving"},
       {"events",
        "an event is predicted moving when the runtime labels it so (an output spike at its "
        "pixel within the label window: latency + " +
@@ -292,7 +305,7 @@ std::string results_csv(const EvalResults& r) {
   std::string out =
       "level,model,data,split,sequence,window_ms,iou_mean,iou_std,detection_rate,windows,"
       "skipped_windows,sequences,filter,event_precision,event_recall,events_tp,events_fp,"
-      "events_fn,events_tn\n";
+      "events_fn,events_tn,moving_share\n";
   for (const auto& m : r.models)
     for (const auto& d : m.datasets) {
       for (const auto& w : d.windows) out += csv_row("dataset", m, d, "", w);
@@ -310,30 +323,34 @@ std::string model_label(const EvalResults& r, const ModelResult& m) {
 
 TextTable summary_table(const EvalResults& r) {
   TextTable t;
-  t.header = {"model",     "data",      "split",   "Δt ms",   "IoU % (mean ± std)", "detection %",
-              "event P %", "event R %", "windows", "skipped", "sequences"};
+  t.header = {"model",       "data",      "split",     "Δt ms",    "IoU % (mean ± std)",
+              "detection %", "event P %", "event R %", "moving %", "windows",
+              "skipped",     "sequences"};
   for (const auto& m : r.models)
     for (const auto& d : m.datasets)
       for (const auto& w : d.windows) {
         auto sc = score_cells(w);
         t.rows.push_back({model_label(r, m), d.data, d.split.empty() ? "–" : d.split,
-                          window_cell(w), sc[0], sc[1], sc[2], sc[3], std::to_string(w.windows),
-                          std::to_string(w.skipped), std::to_string(w.sequences)});
+                          window_cell(w), sc[0], sc[1], sc[2], sc[3], sc[4],
+                          std::to_string(w.windows), std::to_string(w.skipped),
+                          std::to_string(w.sequences)});
       }
   return t;
 }
 
 TextTable sequence_table(const EvalResults& r) {
   TextTable t;
-  t.header = {"model",     "sequence", "Δt ms",  "IoU % (mean ± std)", "detection %", "event P %",
-              "event R %", "windows",  "skipped"};
+  t.header = {"model",       "sequence",  "Δt ms",     "IoU % (mean ± std)",
+              "detection %", "event P %", "event R %", "moving %",
+              "windows",     "skipped"};
   for (const auto& m : r.models)
     for (const auto& d : m.datasets)
       for (const auto& s : d.sequences)
         for (const auto& w : s.windows) {
           auto sc = score_cells(w);
           t.rows.push_back({model_label(r, m), file_name(s.name), window_cell(w), sc[0], sc[1],
-                            sc[2], sc[3], std::to_string(w.windows), std::to_string(w.skipped)});
+                            sc[2], sc[3], sc[4], std::to_string(w.windows),
+                            std::to_string(w.skipped)});
         }
   return t;
 }
@@ -354,6 +371,10 @@ std::string results_markdown(const EvalResults& r) {
   if (r.gate_events)
     out +=
         "- gated by events: P = pixels with an output spike *and* an input event in the window\n";
+  if (r.static_scene)
+    out +=
+        "- static scene: every event is background; the score is `moving %`, the share of "
+        "events labelled moving (IoU and detection are undefined)\n";
   if (!r.boxes.empty())
     out += "- ground truth from boxes (`" + r.boxes +
            "`): G = the pixels inside the boxes valid in the window\n";

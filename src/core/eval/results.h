@@ -68,6 +68,7 @@ struct EvalResults {
   int label_tolerance_steps = 3;   // the runtime's label window beyond its latency
   bool gate_events = false;        // P ∩ E (EvalOptions::gate_events)
   std::string boxes;               // the boxes file giving G (EvalOptions::boxes); "" if none
+  bool static_scene = false;       // every event background (EvalOptions::static_scene)
   std::vector<ModelResult> models;
 };
 

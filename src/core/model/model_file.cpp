@@ -147,18 +147,36 @@ ModelSpec with_iir_neurons(ModelSpec spec, const std::string& source) {
   return spec;
 }
 
-ModelSpec spikems_architecture(bool padded, Discretisation d) {
+void check_widths(const std::vector<int>& widths, const std::string& where) {
+  if (widths.empty() || widths.size() > 6)
+    fail(where, "", "needs 1 to 6 encoder levels, got " + std::to_string(widths.size()));
+  for (int w : widths)
+    if (w < 1 || w > 1024)
+      fail(where, "", "a level's channels must lie in 1..1024, got " + std::to_string(w));
+}
+
+ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<int>& widths) {
+  check_widths(widths, "architecture widths");
+  // The authors' neuron parameters per encoder level (BRIEF.md section 3); the decoder mirrors
+  // the encoder's (its first layer the bottleneck's, its last the input layer's).
+  struct Neuron {
+    float theta, ts, tr, rho;
+  };
+  const Neuron enc[] = {{0.22f, 2, 1, 0.20f}, {0.22f, 2, 1, 0.30f}, {0.24f, 4, 3, 0.30f}};
+  const Neuron dec[] = {{0.22f, 2, 1, 0.22f}, {0.22f, 2, 1, 0.25f}, {0.24f, 4, 3, 0.25f}};
+  const int n = int(widths.size());
   struct Row {
     LayerKind k;
     int ci, co;
-    float theta, ts, tr, rho;
+    Neuron nr;
   };
-  const Row rows[] = {{LayerKind::Conv, 2, 16, 0.22f, 2, 1, 0.20f},
-                      {LayerKind::Conv, 16, 32, 0.22f, 2, 1, 0.30f},
-                      {LayerKind::Conv, 32, 64, 0.24f, 4, 3, 0.30f},
-                      {LayerKind::ConvTranspose, 64, 32, 0.24f, 4, 3, 0.25f},
-                      {LayerKind::ConvTranspose, 32, 16, 0.22f, 2, 1, 0.25f},
-                      {LayerKind::ConvTranspose, 16, 2, 0.22f, 2, 1, 0.22f}};
+  std::vector<Row> rows;
+  for (int i = 0; i < n; ++i)
+    rows.push_back({LayerKind::Conv, i == 0 ? 2 : widths[size_t(i - 1)], widths[size_t(i)],
+                    enc[std::min(i, 2)]});
+  for (int i = n - 1; i >= 0; --i)
+    rows.push_back({LayerKind::ConvTranspose, widths[size_t(i)], i == 0 ? 2 : widths[size_t(i - 1)],
+                    dec[std::min(i, 2)]});
   ModelSpec s;
   s.name = padded ? "spikems-padded" : "spikems";
   for (const auto& r : rows) {
@@ -168,10 +186,10 @@ ModelSpec spikems_architecture(bool padded, Discretisation d) {
     l.out_channels = r.co;
     l.padding = padded ? 1 : 0;
     l.output_padding = (padded && r.k == LayerKind::ConvTranspose) ? 1 : 0;
-    l.neuron.theta = r.theta;
-    l.neuron.tau_s = r.ts;
-    l.neuron.tau_r = r.tr;
-    l.neuron.scale_rho = r.rho;
+    l.neuron.theta = r.nr.theta;
+    l.neuron.tau_s = r.nr.ts;
+    l.neuron.tau_r = r.nr.tr;
+    l.neuron.scale_rho = r.nr.rho;
     l.neuron.discretisation = d;
     l.weight.assign(size_t(l.weight_count()), 0.f);
     s.layers.push_back(std::move(l));
@@ -180,8 +198,8 @@ ModelSpec spikems_architecture(bool padded, Discretisation d) {
   return s;
 }
 
-ModelSpec ann2d_architecture() {
-  ModelSpec s = spikems_architecture(true, Discretisation::IIR);
+ModelSpec ann2d_architecture(const std::vector<int>& widths) {
+  ModelSpec s = spikems_architecture(true, Discretisation::IIR, widths);
   s.name = "ann2d";
   s.type = ModelType::ANN2D;
   s.layers.front().in_channels = 4;

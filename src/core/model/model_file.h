@@ -95,12 +95,17 @@ bool has_sampled_kernels(const LayerSpec& l, double time_step_ms);
 
 // The SpikeMS network of the paper (BRIEF.md section 3), weights zero-filled.
 // padded=false: the authors' geometry (padding 0, output one pixel smaller per 8);
-// padded=true: padding 1 and output_padding 1, so a multiple-of-8 input keeps its size.
-ModelSpec spikems_architecture(bool padded, Discretisation d = Discretisation::FIR);
-// The ANN-2D baseline (EVDodgeNet-like): the same six 3x3 stride-2 layers and channel widths,
+// padded=true: padding 1 and output_padding 1, so a multiple-of-2^levels input keeps its size.
+// widths: the encoder's channels, one stride-2 level each (the paper: 16, 32, 64); the decoder
+// mirrors them back to 2. Levels past the third take the third's neuron parameters.
+ModelSpec spikems_architecture(bool padded, Discretisation d = Discretisation::FIR,
+                               const std::vector<int>& widths = {16, 32, 64});
+// Throws Error unless widths holds 1-6 levels of 1-1024 channels each.
+void check_widths(const std::vector<int>& widths, const std::string& where);
+// The ANN-2D baseline (EVDodgeNet-like): the same 3x3 stride-2 layers and channel widths,
 // padding 1 (output_padding 1 for the transposed ones), ReLU after each but the last, biases;
 // 4 input channels (ann_features.h) and one output channel, the logit of "moving". Zero weights.
-ModelSpec ann2d_architecture();
+ModelSpec ann2d_architecture(const std::vector<int>& widths = {16, 32, 64});
 
 ModelSpec load_model(const std::string& path);
 void save_model(const std::string& path, const ModelSpec& spec);  // atomic

@@ -1,6 +1,7 @@
 #include "train/trainer/train_config.h"
 
 #include <toml++/toml.h>
+#include <cmath>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -192,6 +193,18 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("model", "backward", c.backward);
   b.bind("model", "delays", c.delays);
   b.bind("model", "init", c.init);
+  std::vector<double> widths(c.channels.begin(), c.channels.end());
+  b.bind_list("model", "channels", widths);
+  c.channels.clear();
+  for (double w : widths) {
+    if (w != std::floor(w) || w < 1 || w > 1024)
+      b.bad("model", "channels", "each level's channels must be a whole number in 1..1024");
+    c.channels.push_back(int(w));
+  }
+  if (c.channels.empty() || c.channels.size() > 6)
+    b.bad("model", "channels", "needs 1 to 6 encoder levels (the paper: [16, 32, 64])");
+  c.init_rates.assign(2 * c.channels.size(), 0.03);
+  c.init_rates.back() = 0.02;
   b.bind_list("model", "init_rates", c.init_rates);
   b.bind_sources("data", "train", c.train, "train");
   b.bind_sources("data", "val", c.val, "val");
@@ -260,7 +273,9 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   one_of(b, "model", "neurons", c.neurons, {"iir", "fir"});
   one_of(b, "model", "surrogate", c.surrogate, {"spikems", "slayer"});
   one_of(b, "model", "backward", c.backward, {"slayer", "exact"});
-  if (c.init_rates.size() != 6) b.bad("model", "init_rates", "needs one rate per layer (6)");
+  if (c.init_rates.size() != 2 * c.channels.size())
+    b.bad("model", "init_rates",
+          "needs one rate per layer (" + std::to_string(2 * c.channels.size()) + ")");
   for (double r : c.init_rates)
     if (!(r > 0 && r < 1)) b.bad("model", "init_rates", "rates must lie in (0, 1)");
   if (c.train.empty()) b.bad("data", "train", "no training data: give at least one dataset");

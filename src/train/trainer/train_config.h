@@ -21,7 +21,12 @@ struct TrainConfig {
   std::string backward = "slayer";    // slayer | exact
   bool delays = false;                // learnable axonal delays
   std::string init = "data";          // data | <path of a model file to start from>
-  std::vector<double> init_rates = {0.03, 0.03, 0.03, 0.03, 0.03, 0.02};  // data init targets
+  // Encoder channels per stride-2 level, the decoder mirrored (the paper: 16, 32, 64); only for
+  // init = "data" (a model file brings its own geometry).
+  std::vector<int> channels = {16, 32, 64};
+  // Data-init firing targets, one per layer (2 x levels); 0.03 each and 0.02 for the output
+  // when not given.
+  std::vector<double> init_rates = {0.03, 0.03, 0.03, 0.03, 0.03, 0.02};
   // [data]
   std::vector<DatasetSource> train, val;
   // [sample]

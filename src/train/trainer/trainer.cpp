@@ -37,12 +37,12 @@ namespace {
 
 ModelSpec initial_spec(const TrainConfig& c) {
   ModelSpec spec;
-  if (c.init == "data" && c.type == "ann2d") return ann2d_architecture();
+  if (c.init == "data" && c.type == "ann2d") return ann2d_architecture(c.channels);
   if (c.init != "data") {
     spec = load_model(c.init);  // fine-tuning: geometry and neurons from the file
   } else {
-    spec = spikems_architecture(c.padded,
-                                c.neurons == "iir" ? Discretisation::IIR : Discretisation::FIR);
+    spec = spikems_architecture(
+        c.padded, c.neurons == "iir" ? Discretisation::IIR : Discretisation::FIR, c.channels);
     for (auto& l : spec.layers)
       l.neuron.surrogate = c.surrogate == "slayer" ? SurrogateForm::Slayer : SurrogateForm::SpikeMS;
   }

@@ -108,8 +108,10 @@ TEST(SequenceScorer, EventPrecisionAndRecallFromTheRuntimesLabels) {
   EXPECT_DOUBLE_EQ(row["event_recall"].get<double>(), 100.0 * 2 / 3);
   EXPECT_EQ(row["event_counts"]["fn"], 2);
   EXPECT_TRUE(row["filter"].is_null());
+  // 6 of the 10 events labelled moving (tp + fp).
+  EXPECT_DOUBLE_EQ(row["moving_share"].get<double>(), 60.0);
   const std::string csv = results_csv(r);
-  EXPECT_NE(csv.find(",66.6667,66.6667,4,2,2,2\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",66.6667,66.6667,4,2,2,2,60.0000\n"), std::string::npos) << csv;
 }
 
 }  // namespace

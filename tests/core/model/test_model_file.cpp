@@ -85,6 +85,37 @@ TEST(Architecture, SpikeMSHas46656WeightsAndPaperGeometry) {
   EXPECT_EQ(p.layers[3].output_padding, 1);
 }
 
+TEST(Architecture, WidthsSetLevelsAndMirrorTheNeurons) {
+  const ModelSpec base = spikems_architecture(true, Discretisation::IIR);
+  const ModelSpec s = spikems_architecture(true, Discretisation::IIR, {8, 24, 40, 48});
+  ASSERT_EQ(s.layers.size(), 8u);
+  const int ci[] = {2, 8, 24, 40, 48, 40, 24, 8}, co[] = {8, 24, 40, 48, 40, 24, 8, 2};
+  for (size_t k = 0; k < 8; ++k) {
+    EXPECT_EQ(s.layers[k].in_channels, ci[k]) << k;
+    EXPECT_EQ(s.layers[k].out_channels, co[k]) << k;
+    EXPECT_EQ(s.layers[k].kind, k < 4 ? LayerKind::Conv : LayerKind::ConvTranspose) << k;
+  }
+  // The paper's levels keep the paper's neurons; the fourth takes the third's.
+  auto same = [](const NeuronParams& a, const NeuronParams& b) {
+    return a.theta == b.theta && a.tau_s == b.tau_s && a.tau_r == b.tau_r &&
+           a.scale_rho == b.scale_rho;
+  };
+  for (size_t k = 0; k < 3; ++k) EXPECT_TRUE(same(s.layers[k].neuron, base.layers[k].neuron)) << k;
+  EXPECT_TRUE(same(s.layers[3].neuron, base.layers[2].neuron));
+  EXPECT_TRUE(same(s.layers[4].neuron, base.layers[3].neuron));
+  for (size_t k = 5; k < 8; ++k)
+    EXPECT_TRUE(same(s.layers[k].neuron, base.layers[k - 2].neuron)) << k;
+  EXPECT_EQ(s.output_size(256, 352), std::make_pair(256, 352));  // multiple of 16 keeps its size
+  EXPECT_EQ(s.output_size(260, 346), std::make_pair(272, 352));
+  EXPECT_NO_THROW(s.validate("widths"));
+  EXPECT_THROW(spikems_architecture(true, Discretisation::IIR, {}), Error);
+  EXPECT_THROW(spikems_architecture(true, Discretisation::IIR, {8, 8, 8, 8, 8, 8, 8}), Error);
+  EXPECT_THROW(spikems_architecture(true, Discretisation::IIR, {16, 0}), Error);
+  EXPECT_THROW(spikems_architecture(true, Discretisation::IIR, {2000}), Error);
+  EXPECT_EQ(ann2d_architecture({32, 64}).layers.size(), 4u);
+  EXPECT_EQ(ann2d_architecture({32, 64}).layers.back().out_channels, 1);
+}
+
 static ModelSpec small_model() {
   ModelSpec s = spikems_architecture(true, Discretisation::FIR);
   s.input_width = 64;
