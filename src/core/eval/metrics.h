@@ -59,6 +59,8 @@ struct EventCounts {
   bool has_recall() const { return tp + fn > 0; }     // some event truly moving
   double precision() const { return has_precision() ? double(tp) / double(tp + fp) : 0; }
   double recall() const { return has_recall() ? double(tp) / double(tp + fn) : 0; }
+  // The share of events predicted moving (on a static scene: the false-positive rate).
+  double moving_share() const { return total() ? double(tp + fp) / double(total()) : 0; }
 };
 
 // Energy per BRIEF.md section 6 (Lee et al. 2020, 45 nm, 32-bit float).

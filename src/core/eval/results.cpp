@@ -1,6 +1,5 @@
 #include "core/eval/results.h"
 
-#include <algorithm>
 #include <cmath>
 #include <ctime>
 #include <filesystem>
@@ -119,8 +118,7 @@ nlohmann::ordered_json row_json(const WindowSummary& w, bool with_sequences) {
   };
   j["event_precision"] = pct(w.has_events && e.has_precision(), e.precision());
   j["event_recall"] = pct(w.has_events && e.has_recall(), e.recall());
-  j["moving_share"] = pct(w.has_events && e.total() > 0,
-                          double(e.tp + e.fp) / double(std::max<uint64_t>(e.total(), 1)));
+  j["moving_share"] = pct(w.has_events && e.total() > 0, e.moving_share());
   if (w.has_events)
     j["event_counts"] = {{"tp", e.tp}, {"fp", e.fp}, {"fn", e.fn}, {"tn", e.tn}};
   else
@@ -162,8 +160,7 @@ std::string csv_row(const std::string& level, const ModelResult& m, const Datase
   else
     r += ",,,,";
   r += ",";
-  if (w.has_events && e.total() > 0)
-    r += fmt("%.4f", 100 * double(e.tp + e.fp) / double(e.total()));
+  if (w.has_events && e.total() > 0) r += fmt("%.4f", 100 * e.moving_share());
   return r + "\n";
 }
 
@@ -198,9 +195,7 @@ std::vector<std::string> score_cells(const WindowSummary& w) {
   const EventCounts& e = w.events;
   std::string p = w.has_events && e.has_precision() ? fmt("%.1f", 100 * e.precision()) : "–";
   std::string rc = w.has_events && e.has_recall() ? fmt("%.1f", 100 * e.recall()) : "–";
-  std::string mv = w.has_events && e.total() > 0
-                       ? fmt("%.1f", 100 * double(e.tp + e.fp) / double(e.total()))
-                       : "–";
+  std::string mv = w.has_events && e.total() > 0 ? fmt("%.1f", 100 * e.moving_share()) : "–";
   if (w.windows == 0) return {"–", "–", p, rc, mv};
   return {fmt("%.1f", w.iou_mean) + " ± " + fmt("%.1f", w.iou_std), fmt("%.1f", w.detection_rate),
           p, rc, mv};
