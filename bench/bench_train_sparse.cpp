@@ -23,6 +23,7 @@
 #include "core/dataset/batch_loader.h"
 #include "core/dataset/sequence.h"
 #include "core/model/model_file.h"
+#include "train/host_memory.h"
 #include "train/loss/spikems_loss.h"
 #include "train/network/spikems_network.h"
 #include "train/neuron/psp.h"
@@ -43,7 +44,7 @@ struct Options {
               data = "data/mod2-train";
   int reps = 3, threads = 0, crop = 128, batch = 8;
   std::vector<double> rates = {0.01, 0.03, 0.06, 0.12, 0.25};
-  bool layers = false, flush_denormal = false;
+  bool layers = false, flush_denormal = false, system_malloc = false;
 };
 
 double seconds_since(Clock::time_point t0) {
@@ -173,6 +174,8 @@ int run(const Options& o) {
   // Subnormal floats (tiny gradients) are slow on x86; this makes them zero (both paths), set
   // before the thread pool starts so that its threads inherit the mode.
   if (o.flush_denormal) at::globalContext().setFlushDenormal(true);
+  // As `spikems train` (train/host_memory.h): freed tensors stay in the process.
+  if (!o.system_malloc) keep_freed_memory();
   const int threads = set_torch_threads(o.threads);
   TrainConfig c = load_train_config(o.config, {"sample.crop=" + std::to_string(o.crop)});
   const double ts = double(c.sample.step_us) / 1000.0;
@@ -256,11 +259,12 @@ int main(int argc, char** argv) {
       std::printf(
           "bench_train_sparse [--data DIR] [--model FILE] [--config FILE] [--reps N] "
           "[--threads N] [--crop N] [--batch N] [--rates R,R,...|none] [--flush-denormal] "
-          "[--layers]\n"
+          "[--layers] [--system-malloc]\n"
           "Times one training step with the dense and the sparse synapse kernels on the same "
           "batch (run from the repository root), with the shipped model and with weights set to "
           "each firing rate of --rates (default 0.01,0.03,0.06,0.12,0.25). --layers adds the "
-          "per-layer crossover density.\n");
+          "per-layer crossover density. --system-malloc: glibc's default allocator settings "
+          "(spikems train keeps freed memory; train/host_memory.h).\n");
       return 0;
     } else if (a == "--data") {
       o.data = value();
@@ -294,6 +298,8 @@ int main(int argc, char** argv) {
       }
     } else if (a == "--flush-denormal") {
       o.flush_denormal = true;
+    } else if (a == "--system-malloc") {  // glibc's defaults, as before the trainer kept memory
+      o.system_malloc = true;
     } else if (a == "--layers") {
       o.layers = true;
     } else {

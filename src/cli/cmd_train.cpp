@@ -4,6 +4,7 @@
 
 #include "cli/command.h"
 #include "core/util/error.h"
+#include "train/host_memory.h"
 #include "train/trainer/trainer.h"
 
 namespace {
@@ -25,6 +26,7 @@ void run(const Args& a) {
   if (a.threads >= 0) overrides.push_back("run.threads=" + std::to_string(a.threads));
   if (!a.device.empty()) overrides.push_back("run.device=\"" + a.device + "\"");
   if (!a.kernels.empty()) overrides.push_back("run.kernels=\"" + a.kernels + "\"");
+  keep_freed_memory();  // reuse freed tensor memory: no page faults per step (host_memory.h)
   TrainRunOptions ro;
   ro.dist = resolve_dist_options(a.dist);  // flags, then MASTER_ADDR, MASTER_PORT, RANK, WORLD_SIZE
   ro.progress = !a.quiet;

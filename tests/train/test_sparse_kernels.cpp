@@ -19,16 +19,12 @@
 #include "train/neuron/psp.h"
 #include "train/synapse/sparse_conv.h"
 #include "train/trainer/train_config.h"
+#include "train_test_util.h"
 
 namespace spikems::train {
 namespace {
 
-// Largest |a - b| relative to max|b| (0 when both vanish).
-double rel_err(const torch::Tensor& a, const torch::Tensor& b) {
-  const double scale = b.abs().max().item<double>();
-  const double diff = (a - b).abs().max().item<double>();
-  return scale == 0 ? diff : diff / scale;
-}
+using test::rel_err;
 
 // Random spikes of the given density with value 1/ts (and a few double spikes, 2/ts, as a bin
 // with two events gives), [T, B, C, H, W].

@@ -13,6 +13,13 @@
 
 namespace spikems::test {
 
+// Largest |a - b| relative to max|b| (the absolute difference when b vanishes).
+inline double rel_err(const torch::Tensor& a, const torch::Tensor& b) {
+  const double scale = b.abs().max().item<double>();
+  const double diff = (a - b).abs().max().item<double>();
+  return scale == 0 ? diff : diff / scale;
+}
+
 // (N, C, H, W, T) float array -> [T, N, C, H, W] float tensor.
 inline torch::Tensor time_major(const NpyArray& a) {
   std::vector<float> v = a.to<float>();

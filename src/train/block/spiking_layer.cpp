@@ -35,6 +35,32 @@ torch::Tensor SpikingLayerImpl::forward(const torch::Tensor& x) {
   return s;
 }
 
+torch::Tensor SpikingLayerImpl::forward_window(const torch::Tensor& x, int64_t w0,
+                                               const torch::Tensor& warm_out) {
+  TORCH_CHECK(!delay.defined(), "a truncated warm-up needs layers without axonal delays");
+  const int64_t T = x.size(0), tw = T - w0;
+  TORCH_CHECK(w0 > 0 && tw > 0 && warm_out.size(0) == w0,
+              "forward_window: needs 0 < w0 < T and w0 steps of warm-up spikes");
+  // psp is a causal filter over time: the window's values need the warm-up's input, which is
+  // a constant here; the synapse then runs on the window's frames alone.
+  const torch::Tensor p = psp(x, eps_, ts_).narrow(0, w0, tw);
+  const torch::Tensor u = synapse_forward(p, weight, geom_);
+  // The refractory responses of the warm-up's spikes reach into the window: add them as a
+  // constant (the spike function adds the window's own spikes' responses as it goes).
+  torch::Tensor offset;
+  {
+    torch::NoGradGuard ng;
+    const auto& k = spike_.refractory;
+    torch::Tensor sp = torch::cat({warm_out.detach(), torch::zeros_like(u)}, 0);
+    sp = sp.reshape({T, -1}).contiguous();
+    const torch::Tensor r = fused_kernel_exists(sp, k)
+                                ? apply_temporal_kernel_fused(sp, k, ts_, false)
+                                : apply_temporal_kernel_ops(sp, k, ts_, false);
+    offset = r.narrow(0, w0, tw).reshape(u.sizes());
+  }
+  return spike(u + offset, spike_);
+}
+
 LayerSpec SpikingLayerImpl::to_spec() const {
   LayerSpec l = spec_;
   store_weight(l, weight);

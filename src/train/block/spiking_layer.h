@@ -22,6 +22,12 @@ class SpikingLayerImpl : public torch::nn::Module {
   torch::Tensor forward(const torch::Tensor& x);
   // The synaptic potential u = W (*) (eps * x), before spike generation (for diagnostics).
   torch::Tensor potential(const torch::Tensor& x);
+  // Truncated warm-up: the layer's spikes over steps [w0, T) only, given its whole input x
+  // ([T, ...]; the first w0 steps are constants from a pass without gradients) and its own
+  // spikes over [0, w0) from that pass (`warm_out`). The values equal forward(x)'s last T - w0
+  // steps (the warm-up's refractory enters as a constant offset, the synapse runs on the
+  // window's frames only); no gradient flows into the warm-up. Refuses layers with delays.
+  torch::Tensor forward_window(const torch::Tensor& x, int64_t w0, const torch::Tensor& warm_out);
 
   // The layer spec with the current weight and delay values.
   LayerSpec to_spec() const;

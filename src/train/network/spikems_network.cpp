@@ -27,6 +27,31 @@ std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all(const torch::Tensor& 
   return out;
 }
 
+std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all_truncated(const torch::Tensor& x,
+                                                                     int64_t w0) {
+  if (w0 <= 0) return forward_all(x);
+  const int64_t T = x.size(0);
+  TORCH_CHECK(w0 < T, "forward_all_truncated: the warm-up must be shorter than the input");
+  // Pass 1: the warm-up alone, no graph (forward only, so it costs a third of a trained step).
+  std::vector<torch::Tensor> warm_in, warm_out;
+  {
+    torch::NoGradGuard ng;
+    torch::Tensor s = x.narrow(0, 0, w0);
+    for (auto& l : layers_) {
+      warm_in.push_back(s);
+      warm_out.push_back(s = l->forward(s));
+    }
+  }
+  // Pass 2: the window with gradients, each layer continuing from its warm-up.
+  std::vector<torch::Tensor> out;
+  torch::Tensor s = x.narrow(0, w0, T - w0);
+  for (size_t k = 0; k < layers_.size(); ++k) {
+    s = layers_[k]->forward_window(torch::cat({warm_in[k], s}, 0), w0, warm_out[k]);
+    out.push_back(s);
+  }
+  return out;
+}
+
 ModelSpec SpikeMSNetworkImpl::to_spec() const {
   ModelSpec s = spec_;
   for (size_t k = 0; k < layers_.size(); ++k) s.layers[k] = layers_[k]->to_spec();

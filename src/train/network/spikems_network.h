@@ -24,6 +24,11 @@ class SpikeMSNetworkImpl : public torch::nn::Module {
 
   torch::Tensor forward(const torch::Tensor& x);                   // last layer's spikes
   std::vector<torch::Tensor> forward_all(const torch::Tensor& x);  // every layer's spikes
+  // Truncated warm-up (the trainer's optim.warmup_backprop = false): the first w0 steps run
+  // without gradients, then every layer's spikes over [w0, T) are computed with gradients from
+  // that state (SpikingLayerImpl::forward_window). Returns the T - w0 window steps of each
+  // layer; their values equal forward_all(x)'s. w0 = 0 is forward_all.
+  std::vector<torch::Tensor> forward_all_truncated(const torch::Tensor& x, int64_t w0);
 
   // The spec with the current parameter values (for save_model).
   ModelSpec to_spec() const;

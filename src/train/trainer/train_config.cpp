@@ -251,6 +251,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("optim", "batch", c.batch);
   b.bind("optim", "steps", c.steps);
   b.bind("optim", "clip", c.clip);
+  b.bind("optim", "warmup_backprop", c.warmup_backprop);
   int64_t seed = int64_t(c.seed);
   b.bind("run", "seed", seed);
   c.seed = uint64_t(seed);
@@ -317,6 +318,9 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.steps < 1) b.bad("optim", "steps", "must be at least 1");
   if (c.warmup_steps < 0) b.bad("optim", "warmup_steps", "must not be negative");
   if (c.step_every < 1) b.bad("optim", "step_every", "must be at least 1");
+  if (!c.warmup_backprop && c.delays)
+    b.bad("optim", "warmup_backprop",
+          "false needs model.delays = false (a delayed spike may cross into the window)");
   one_of(b, "run", "device", c.device, {"cpu", "cuda"});
   one_of(b, "run", "neuron_kernels", c.neuron_kernels, {"fused", "ops"});
   one_of(b, "run", "kernels", c.kernels, {"auto", "sparse", "dense"});

@@ -60,6 +60,10 @@ struct TrainConfig {
   double step_gamma = 0.5;
   int batch = 8, steps = 2000;
   double clip = 1.0;  // global gradient-norm clip (0: off)
+  // false: the warm-up runs without gradients and backpropagation through time starts at the
+  // window (truncated BPTT; SpikeMSNetworkImpl::forward_all_truncated): same forward values,
+  // ~2x cheaper steps and a fifth of the memory at 40 ms warm-up + 10 ms window.
+  bool warmup_backprop = true;
   // [run]
   uint64_t seed = 1;
   int threads = 0;             // 0: all cores

@@ -93,9 +93,13 @@ StepOutput forward_loss(SpikeMSNetwork& net, const BatchTensors& bt, const Train
                         const LossOptions& lo, double ts) {
   const int64_t T = bt.input.size(0), H = bt.input.size(3), W = bt.input.size(4);
   const int64_t w0 = bt.warmup_steps, tw = T - w0;
-  std::vector<torch::Tensor> layers = net->forward_all(bt.input);
+  // Truncated: the layers come back as their window steps only (lw0 = 0).
+  const bool truncate = !c.warmup_backprop && w0 > 0;
+  std::vector<torch::Tensor> layers =
+      truncate ? net->forward_all_truncated(bt.input, w0) : net->forward_all(bt.input);
+  const int64_t lw0 = truncate ? 0 : w0;
   StepOutput o;
-  torch::Tensor out = align_to_input(layers.back(), H, W).narrow(0, w0, tw);
+  torch::Tensor out = align_to_input(layers.back(), H, W).narrow(0, lw0, tw);
   torch::Tensor in = bt.input.narrow(0, w0, tw), fg = bt.fg.narrow(0, w0, tw);
   const auto zero = torch::zeros({}, out.options());
   const bool use_bce = c.loss == "bce" || c.loss == "both";
@@ -108,7 +112,7 @@ StepOutput forward_loss(SpikeMSNetwork& net, const BatchTensors& bt, const Train
   for (size_t k = 0; k < layers.size(); ++k) {
     // Over the window only: in the warm-up the deep layers are still filling up (each adds
     // a few ms of latency), and a mean over it would understate their steady-state rates.
-    const torch::Tensor rate = layers[k].narrow(0, w0, tw).mean() * ts;
+    const torch::Tensor rate = layers[k].narrow(0, lw0, tw).mean() * ts;
     o.rates.push_back(rate.item<double>());
     if (c.activity_weight > 0) o.activity = o.activity + c.activity_weight * rate;
     const double floor = k + 1 < layers.size() ? c.rate_floor : c.output_floor;
