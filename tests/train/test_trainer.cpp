@@ -255,6 +255,12 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(msg({"model.channels=[8, 16]", "model.init_rates=[0.1, 0.1, 0.1, 0.1, 0.1, 0.1]"})
                 .find("model.init_rates: needs one rate per layer (4)"),
             std::string::npos);
+  EXPECT_NE(msg({"model.tau_s=[1, 1]"}).find("model.tau_s: needs one time constant per level"),
+            std::string::npos);
+  EXPECT_NE(msg({"model.tau_s=[1, 0, 1]"}).find("model.tau_s: each must lie in 0.1..100 ms"),
+            std::string::npos);
+  EXPECT_EQ(load_train_config(config_path(), {"model.tau_s=[1, 2, 3]"}).tau_s,
+            (std::vector<double>{1, 2, 3}));
   {  // Other widths: one default firing target per layer, 0.02 for the output.
     TrainConfig w = load_train_config(config_path(), {"model.channels=[8, 16]"});
     EXPECT_EQ(w.channels, (std::vector<int>{8, 16}));

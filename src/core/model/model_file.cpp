@@ -155,8 +155,15 @@ void check_widths(const std::vector<int>& widths, const std::string& where) {
       fail(where, "", "a level's channels must lie in 1..1024, got " + std::to_string(w));
 }
 
-ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<int>& widths) {
+ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<int>& widths,
+                               const std::vector<double>& tau_s) {
   check_widths(widths, "architecture widths");
+  if (!tau_s.empty() && tau_s.size() != widths.size())
+    fail("architecture tau_s", "",
+         "needs one time constant per level (" + std::to_string(widths.size()) + "), got " +
+             std::to_string(tau_s.size()));
+  for (double t : tau_s)
+    if (!(t >= 0.1 && t <= 100)) fail("architecture tau_s", "", "each must lie in 0.1..100 ms");
   // The authors' neuron parameters per encoder level (BRIEF.md section 3); the decoder mirrors
   // the encoder's (its first layer the bottleneck's, its last the input layer's).
   struct Neuron {
@@ -170,13 +177,18 @@ ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<
     int ci, co;
     Neuron nr;
   };
+  auto level = [&](const Neuron* table, int i) {
+    Neuron nr = table[std::min(i, 2)];
+    if (!tau_s.empty()) nr.ts = float(tau_s[size_t(i)]);
+    return nr;
+  };
   std::vector<Row> rows;
   for (int i = 0; i < n; ++i)
-    rows.push_back({LayerKind::Conv, i == 0 ? 2 : widths[size_t(i - 1)], widths[size_t(i)],
-                    enc[std::min(i, 2)]});
+    rows.push_back(
+        {LayerKind::Conv, i == 0 ? 2 : widths[size_t(i - 1)], widths[size_t(i)], level(enc, i)});
   for (int i = n - 1; i >= 0; --i)
     rows.push_back({LayerKind::ConvTranspose, widths[size_t(i)], i == 0 ? 2 : widths[size_t(i - 1)],
-                    dec[std::min(i, 2)]});
+                    level(dec, i)});
   ModelSpec s;
   s.name = padded ? "spikems-padded" : "spikems";
   for (const auto& r : rows) {

@@ -98,8 +98,12 @@ bool has_sampled_kernels(const LayerSpec& l, double time_step_ms);
 // padded=true: padding 1 and output_padding 1, so a multiple-of-2^levels input keeps its size.
 // widths: the encoder's channels, one stride-2 level each (the paper: 16, 32, 64); the decoder
 // mirrors them back to 2. Levels past the third take the third's neuron parameters.
+// tau_s (ms), when given, one per level: the synaptic time constant of the level's encoder and
+// decoder layers (the paper's 2, 2, 4 otherwise). Each layer delays its output by about its
+// tau_s (the kernel's peak), so a deep stack answers late: see docs/training.md.
 ModelSpec spikems_architecture(bool padded, Discretisation d = Discretisation::FIR,
-                               const std::vector<int>& widths = {16, 32, 64});
+                               const std::vector<int>& widths = {16, 32, 64},
+                               const std::vector<double>& tau_s = {});
 // Throws Error unless widths holds 1-6 levels of 1-1024 channels each.
 void check_widths(const std::vector<int>& widths, const std::string& where);
 // The ANN-2D baseline (EVDodgeNet-like): the same 3x3 stride-2 layers and channel widths,

@@ -203,6 +203,13 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   }
   if (c.channels.empty() || c.channels.size() > 6)
     b.bad("model", "channels", "needs 1 to 6 encoder levels (the paper: [16, 32, 64])");
+  b.bind_list("model", "tau_s", c.tau_s);
+  if (!c.tau_s.empty() && c.tau_s.size() != c.channels.size())
+    b.bad("model", "tau_s",
+          "needs one time constant per level of model.channels (" +
+              std::to_string(c.channels.size()) + "), or [] for the paper's");
+  for (double t : c.tau_s)
+    if (!(t >= 0.1 && t <= 100)) b.bad("model", "tau_s", "each must lie in 0.1..100 ms");
   c.init_rates.assign(2 * c.channels.size(), 0.03);
   c.init_rates.back() = 0.02;
   b.bind_list("model", "init_rates", c.init_rates);

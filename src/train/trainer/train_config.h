@@ -24,6 +24,9 @@ struct TrainConfig {
   // Encoder channels per stride-2 level, the decoder mirrored (the paper: 16, 32, 64); only for
   // init = "data" (a model file brings its own geometry).
   std::vector<int> channels = {16, 32, 64};
+  // Synaptic time constant (ms) per level, encoder and decoder layer alike (empty: the
+  // paper's 2, 2, 4, levels past the third 4). Each layer answers ~tau_s late.
+  std::vector<double> tau_s;
   // Data-init firing targets, one per layer (2 x levels); 0.03 each and 0.02 for the output
   // when not given.
   std::vector<double> init_rates = {0.03, 0.03, 0.03, 0.03, 0.03, 0.02};

@@ -41,8 +41,9 @@ ModelSpec initial_spec(const TrainConfig& c) {
   if (c.init != "data") {
     spec = load_model(c.init);  // fine-tuning: geometry and neurons from the file
   } else {
-    spec = spikems_architecture(
-        c.padded, c.neurons == "iir" ? Discretisation::IIR : Discretisation::FIR, c.channels);
+    spec = spikems_architecture(c.padded,
+                                c.neurons == "iir" ? Discretisation::IIR : Discretisation::FIR,
+                                c.channels, c.tau_s);
     for (auto& l : spec.layers)
       l.neuron.surrogate = c.surrogate == "slayer" ? SurrogateForm::Slayer : SurrogateForm::SpikeMS;
   }

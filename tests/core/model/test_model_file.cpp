@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -114,6 +115,25 @@ TEST(Architecture, WidthsSetLevelsAndMirrorTheNeurons) {
   EXPECT_THROW(spikems_architecture(true, Discretisation::IIR, {2000}), Error);
   EXPECT_EQ(ann2d_architecture({32, 64}).layers.size(), 4u);
   EXPECT_EQ(ann2d_architecture({32, 64}).layers.back().out_channels, 1);
+}
+
+// model.tau_s: one synaptic time constant per level, the decoder's layers mirrored; the FIR
+// kernels are sampled from it (the peak of eps sits at tau_s).
+TEST(Architecture, TauPerLevelMirrorsAndSetsTheKernels) {
+  const ModelSpec s = spikems_architecture(true, Discretisation::FIR, {8, 16, 32}, {1, 3, 5});
+  const double want[] = {1, 3, 5, 5, 3, 1};
+  for (size_t k = 0; k < 6; ++k) {
+    EXPECT_EQ(s.layers[k].neuron.tau_s, want[k]) << k;
+    const auto& e = s.layers[k].srm_kernel;
+    ASSERT_GT(e.size(), size_t(want[k]) + 1) << k;
+    const size_t peak = size_t(std::max_element(e.begin(), e.end()) - e.begin());
+    EXPECT_EQ(double(peak), want[k]) << "eps peaks at tau_s (1 ms steps), layer " << k;
+  }
+  const ModelSpec base = spikems_architecture(true, Discretisation::FIR, {8, 16, 32});
+  EXPECT_EQ(s.layers[0].neuron.theta, base.layers[0].neuron.theta);  // only tau_s changes
+  EXPECT_EQ(s.layers[2].neuron.tau_r, base.layers[2].neuron.tau_r);
+  EXPECT_THROW(spikems_architecture(true, Discretisation::IIR, {8, 16}, {1}), Error);
+  EXPECT_THROW(spikems_architecture(true, Discretisation::IIR, {8}, {0}), Error);
 }
 
 static ModelSpec small_model() {
