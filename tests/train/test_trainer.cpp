@@ -8,7 +8,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -133,6 +135,15 @@ TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
   ASSERT_EQ(train.size(), 100u);
   EXPECT_LT(mean_loss(train, 90, 100), 0.7 * mean_loss(train, 0, 10))
       << "mean loss of steps 1-10 vs 91-100";
+  for (const auto& line : train) {  // one gradient norm per layer's weight, finite, some > 0
+    ASSERT_EQ(line["grad_norms"].size(), 6u);
+    double most = 0;
+    for (const auto& g : line["grad_norms"]) {
+      EXPECT_TRUE(std::isfinite(g.get<double>()) && g.get<double>() >= 0);
+      most = std::max(most, g.get<double>());
+    }
+    EXPECT_GT(most, 0.0) << "step " << line["step"];
+  }
   auto val = read_log(dir, "val");
   ASSERT_EQ(val.size(), 2u);  // before training (step 0) and at the end
   EXPECT_EQ(val[0]["step"], 0);

@@ -496,6 +496,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_soft_iou = 0, sum_act = 0;
   double sum_comm = 0;  // seconds in collectives, waiting for the slowest rank included
   std::vector<double> sum_rates(net.size(), 0.0);
+  std::vector<double> sum_grad;  // per parameter tensor, summed over the log interval
   int in_sum = 0;
   auto seg_start = std::chrono::steady_clock::now();
   const double wall_before = st.wall_seconds;
@@ -553,6 +554,13 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     dist.average_gradients(net.module());  // before clipping: the clip sees the global gradient
     comm_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_comm).count();
     sum_comm += comm_s;
+    {  // per-parameter gradient norms before clipping (the log's grad_norms: which layers learn)
+      torch::NoGradGuard ng;
+      const auto params = net.module().parameters();
+      if (sum_grad.size() != params.size()) sum_grad.assign(params.size(), 0.0);
+      for (size_t k = 0; k < params.size(); ++k)
+        if (params[k].grad().defined()) sum_grad[k] += params[k].grad().norm().item<double>();
+    }
     if (c.clip > 0) torch::nn::utils::clip_grad_norm_(net.module().parameters(), c.clip);
     opt.step();
     ++st.step;
@@ -584,8 +592,10 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     bar.set_status(status);
     bar.update(uint64_t(st.step) * uint64_t(c.batch));
     if (st.step % c.log_every == 0 || st.step == c.steps) {
-      std::vector<double> r = sum_rates;
+      std::vector<double> r = sum_rates, g = sum_grad;
       for (double& v : r) v /= in_sum;
+      nlohmann::json grads = nlohmann::json::array();
+      for (double v : g) grads.push_back(v / in_sum);
       nlohmann::json line = {
           {"kind", "train"},
           {"step", st.step},
@@ -598,6 +608,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
           {"detection_rate", 100 * train_ws.detection_rate()},
           {"lr", lr},
           {"rates", rates_json(r)},
+          {"grad_norms", grads},
           {"samples_per_s",
            double(in_sum * c.batch) / std::max(1e-9, st.wall_seconds - res.wall_seconds)},
           {"wall_s", st.wall_seconds}};
@@ -606,6 +617,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
       res.wall_seconds = st.wall_seconds;
       sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = sum_comm = 0;
       std::fill(sum_rates.begin(), sum_rates.end(), 0.0);
+      std::fill(sum_grad.begin(), sum_grad.end(), 0.0);
       in_sum = 0;
       train_ws = WindowScores();
     }
