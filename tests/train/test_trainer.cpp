@@ -270,6 +270,9 @@ TEST(Trainer, BadConfigsNameTheKey) {
             std::string::npos);
   EXPECT_NE(msg({"model.tau_s=[1, 0, 1]"}).find("model.tau_s: each must lie in 0.1..100 ms"),
             std::string::npos);
+  EXPECT_NE(msg({"model.tau_rho=-1.0"}).find("model.tau_rho: must lie in 0.01..100"),
+            std::string::npos);
+  EXPECT_EQ(load_train_config(config_path(), {"model.tau_rho=3.0"}).tau_rho, 3.0);
   EXPECT_EQ(load_train_config(config_path(), {"model.tau_s=[1, 2, 3]"}).tau_s,
             (std::vector<double>{1, 2, 3}));
   {  // Other widths: one default firing target per layer, 0.02 for the output.

@@ -27,6 +27,9 @@ struct TrainConfig {
   // Synaptic time constant (ms) per level, encoder and decoder layer alike (empty: the
   // paper's 2, 2, 4, levels past the third 4). Each layer answers ~tau_s late.
   std::vector<double> tau_s;
+  // The surrogate's width in units of theta for every layer (0: keep the model's, the
+  // authors' 0.3). Training only: the forward pass does not depend on it.
+  double tau_rho = 0;
   // Data-init firing targets, one per layer (2 x levels); 0.03 each and 0.02 for the output
   // when not given.
   std::vector<double> init_rates = {0.03, 0.03, 0.03, 0.03, 0.03, 0.02};

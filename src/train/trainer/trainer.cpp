@@ -47,6 +47,8 @@ ModelSpec initial_spec(const TrainConfig& c) {
     for (auto& l : spec.layers)
       l.neuron.surrogate = c.surrogate == "slayer" ? SurrogateForm::Slayer : SurrogateForm::SpikeMS;
   }
+  if (c.tau_rho > 0)
+    for (auto& l : spec.layers) l.neuron.tau_rho = float(c.tau_rho);
   return spec;
 }
 
