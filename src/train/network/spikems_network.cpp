@@ -32,7 +32,7 @@ std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all_truncated(const torch
   if (w0 <= 0) return forward_all(x);
   const int64_t T = x.size(0);
   TORCH_CHECK(w0 < T, "forward_all_truncated: the warm-up must be shorter than the input");
-  // Pass 1: the warm-up alone, no graph (forward only, so it costs a third of a trained step).
+  // Pass 1: the warm-up alone, forward only and without a graph.
   std::vector<torch::Tensor> warm_in, warm_out;
   {
     torch::NoGradGuard ng;
