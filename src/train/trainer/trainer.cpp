@@ -558,10 +558,13 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     sum_comm += comm_s;
     {  // per-parameter gradient norms before clipping (the log's grad_norms: which layers learn)
       torch::NoGradGuard ng;
-      const auto params = net.module().parameters();
-      if (sum_grad.size() != params.size()) sum_grad.assign(params.size(), 0.0);
-      for (size_t k = 0; k < params.size(); ++k)
-        if (params[k].grad().defined()) sum_grad[k] += params[k].grad().norm().item<double>();
+      std::vector<torch::Tensor> norms;
+      for (const auto& p : net.module().parameters())
+        norms.push_back(p.grad().defined() ? p.grad().norm() : torch::zeros({}, p.options()));
+      // One transfer for all of them: a per-tensor item() would sync a GPU once per layer.
+      const torch::Tensor n = torch::stack(norms).to(torch::kCPU, torch::kDouble);
+      if (sum_grad.size() != norms.size()) sum_grad.assign(norms.size(), 0.0);
+      for (size_t k = 0; k < norms.size(); ++k) sum_grad[k] += n[int64_t(k)].item<double>();
     }
     if (c.clip > 0) torch::nn::utils::clip_grad_norm_(net.module().parameters(), c.clip);
     opt.step();
