@@ -320,9 +320,11 @@ LayerInputs record_layer_inputs(Discretisation disc) {
         in.push_back((uint32_t(ev.y[i]) * kW + ev.x[i]) * 2 + ev.p[i]);
       std::sort(in.begin(), in.end());
       in.erase(std::unique(in.begin(), in.end()), in.end());
-      li.steps[0].push_back(in);
       net.step(in);
-      for (size_t k = 1; k < nl; ++k) li.steps[k].push_back(net.layer_spikes(k - 1));
+      for (size_t k = 0; k < nl; ++k) {  // as each layer took it (skips concatenated)
+        li.steps[k].emplace_back();
+        net.layer_input(k, in, li.steps[k].back());
+      }
     }
   }
   return li;

@@ -3,9 +3,11 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <tuple>
 
 #include "core/runtime/streaming_network.h"
 #include "train/network/spikems_network.h"
@@ -13,12 +15,13 @@
 namespace spikems {
 namespace {
 
-ModelSpec random_model(Discretisation d, uint32_t seed, const std::vector<int>& widths) {
-  ModelSpec m = spikems_architecture(true, d, widths);
+ModelSpec random_model(Discretisation d, uint32_t seed, const std::vector<int>& widths,
+                       bool skips = false, float gain = 1.f) {
+  ModelSpec m = spikems_architecture(true, d, widths, {}, skips);
   std::mt19937 rng(seed);
   for (auto& l : m.layers) {
-    std::normal_distribution<float> g(0.25f / float(l.in_channels),
-                                      1.0f / std::sqrt(float(l.in_channels) * 9));
+    std::normal_distribution<float> g(0.25f * gain / float(l.in_channels),
+                                      gain / std::sqrt(float(l.in_channels) * 9));
     for (auto& w : l.weight) w = g(rng);
   }
   fill_fir_kernels(m);
@@ -117,6 +120,93 @@ void check(Discretisation d, uint32_t seed, double near,
   }
   std::printf("end to end, last layer: %d mismatches\n", mism);
   EXPECT_LE(mism, 30);
+}
+
+// Per step, the spikes of a [T, 1, C, H, W] tensor, ascending (the runtime's order).
+std::vector<std::vector<uint32_t>> sorted_steps(const torch::Tensor& x) {
+  auto s = to_steps(x);
+  for (auto& v : s) std::sort(v.begin(), v.end());
+  return s;
+}
+
+// The U-Net variant (layer 4 takes layers 3 and 1, layer 5 layers 4 and 0) on a 21x13 input,
+// which forward_all_layers pads to 23x15 (the fitted size: its outputs are in that geometry,
+// 24x16 at the end). The runtime, given the unpadded sensor's spikes, gives the same spikes:
+// each layer teacher forced on torch's concatenated input; every layer at every step of the
+// whole network through step(); and the output layer's at every step through step_block() on
+// one thread and the pipeline on two and three threads. The skips matter: without their
+// weights torch's decoder spikes differently.
+TEST(RuntimeVsTorch, SkipModelMatchesInEveryPath) {
+  for (auto [d, seed, near] :
+       {std::tuple{Discretisation::FIR, 25u, 1e-5}, std::tuple{Discretisation::IIR, 26u, 1e-4}}) {
+    SCOPED_TRACE(d == Discretisation::FIR ? "FIR" : "IIR");
+    const ModelSpec m = random_model(d, seed, {4, 6, 8}, true, 0.3f);  // 5-50 % firing
+    torch::manual_seed(seed);
+    const torch::Tensor input = (torch::rand({40, 1, 2, 13, 21}) < 0.05).to(torch::kFloat);
+    const auto layers = train::forward_all_layers(m, input);
+    ASSERT_EQ(layers.size(), 6u);
+    ASSERT_EQ(layers[0].size(3), 8);  // ceil(15 / 2): the padded input
+    ASSERT_EQ(layers[0].size(4), 12);
+    ASSERT_EQ(layers.back().size(3), 16);
+    ASSERT_EQ(layers.back().size(4), 24);
+    // Teacher forced.
+    const torch::Tensor padded = torch::constant_pad_nd(input, {0, 2, 0, 2}, 0);
+    for (size_t k = 0; k < m.layers.size(); ++k) {
+      const int skip = m.layers[k].skip_from;
+      const torch::Tensor in = k == 0     ? padded
+                               : skip < 0 ? layers[k - 1]
+                                          : torch::cat({layers[k - 1], layers[size_t(skip)]}, 2);
+      Cmp c = compare_layer(m.layers[k], m.time_step_ms, in, layers[k], near);
+      std::printf("layer %zu: %d torch spikes, %d mismatches\n", k + 1, c.torch_spikes,
+                  c.mismatches);
+      EXPECT_GT(c.torch_spikes, 20) << "layer " << k;
+      EXPECT_EQ(c.mismatches, 0) << "layer " << k;
+    }
+    // The whole network, every layer at every step.
+    std::vector<std::vector<std::vector<uint32_t>>> want;
+    for (const auto& l : layers) want.push_back(sorted_steps(l));
+    const auto steps = to_steps(input);  // the sensor's geometry, (y*21 + x)*2 + p
+    const size_t T = steps.size(), L = m.layers.size();
+    StreamingNetwork net(m, 13, 21);
+    for (size_t t = 0; t < T; ++t) {
+      net.step(steps[t]);
+      for (size_t k = 0; k < L; ++k) {
+        auto got = net.layer_spikes(k);
+        std::sort(got.begin(), got.end());
+        ASSERT_EQ(got, want[k][t]) << "step " << t << " layer " << k;
+      }
+    }
+    // Blocks and the pipeline.
+    for (int threads : {1, 2, 3}) {
+      StreamingNetwork b(m, 13, 21);
+      b.set_threads(threads);
+      std::vector<std::vector<uint32_t>> got;
+      size_t t = 0;
+      for (size_t n : {5, 1, 16, 3, 15}) {
+        const size_t ready = b.step_block(&steps[t], n);
+        for (size_t j = 0; j < ready; ++j) got.push_back(b.block_output(j));
+        t += n;
+      }
+      ASSERT_EQ(t, T);
+      while (b.in_flight()) {
+        const size_t ready = b.step_block(nullptr, 0);
+        for (size_t j = 0; j < ready; ++j) got.push_back(b.block_output(j));
+      }
+      ASSERT_EQ(got.size(), T) << threads << " threads";
+      for (size_t s = 0; s < T; ++s)
+        ASSERT_EQ(got[s], want[L - 1][s]) << threads << " threads, step " << s;
+    }
+    ModelSpec cut = m;
+    for (size_t k : {size_t(4), size_t(5)}) {  // convT weights [C_in, C_out, 3, 3]
+      LayerSpec& l = cut.layers[k];
+      std::fill(
+          l.weight.begin() + std::ptrdiff_t(m.layers[k - 1].out_channels) * l.out_channels * 9,
+          l.weight.end(), 0.f);
+    }
+    const auto cut_layers = train::forward_all_layers(cut, input);
+    EXPECT_FALSE(torch::equal(cut_layers[4], layers[4]));
+    EXPECT_FALSE(torch::equal(cut_layers[5], layers[5]));
+  }
 }
 
 TEST(RuntimeVsTorch, FirLayersMatch) {

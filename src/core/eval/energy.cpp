@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <tuple>
 
 #include "core/dataset/sequence.h"
 #include "core/eval/metrics.h"
@@ -25,6 +26,11 @@ std::vector<LayerShape> layer_shapes(const ModelSpec& model, int height, int wid
              " is not positive");
   std::vector<LayerShape> out;
   int h = height, w = width;
+  // As the runtime: a model with skips on its fitted size (in_channels counts the skip's).
+  if (model.has_skips()) {
+    std::tie(h, w) = model.fitted_input_size(height, width);
+    model.check_input_size(h, w, model.name);
+  }
   for (size_t k = 0; k < model.layers.size(); ++k) {
     const LayerSpec& l = model.layers[k];
     LayerShape s;

@@ -28,7 +28,8 @@ struct LayerShape {
   int in_height = 0, in_width = 0, out_height = 0, out_width = 0;
 };
 
-// The shapes of a model's layers on a height x width input, as the runtime builds them.
+// The shapes of a model's layers on a height x width input, as the runtime builds them (a
+// model with skips on its fitted input size; a layer's in_channels count its skip source's).
 // Throws Error (naming the model) when the model does not fit the size.
 std::vector<LayerShape> layer_shapes(const ModelSpec& model, int height, int width);
 // MACs of one dense pass of the ANN layer of that shape (convention above).

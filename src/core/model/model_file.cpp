@@ -21,6 +21,53 @@ std::pair<int, int> ModelSpec::output_size(int h, int w) const {
   return {h, w};
 }
 
+bool ModelSpec::has_skips() const {
+  return std::any_of(layers.begin(), layers.end(),
+                     [](const LayerSpec& l) { return l.skip_from >= 0; });
+}
+
+namespace {
+// Whether one spatial dimension of this size passes every layer and meets every skip.
+bool dimension_fits(const std::vector<LayerSpec>& layers, int n) {
+  std::vector<int> out;
+  for (const auto& l : layers) {
+    if (l.skip_from >= 0 && out[size_t(l.skip_from)] != n) return false;
+    n = l.output_size(n);
+    if (n <= 0) return false;
+    out.push_back(n);
+  }
+  return true;
+}
+}  // namespace
+
+std::pair<int, int> ModelSpec::fitted_input_size(int h, int w) const {
+  auto fit = [&](int n) {
+    for (int m = std::max(n, 1); m < n + 4096; ++m)
+      if (dimension_fits(layers, m)) return m;
+    return n;  // none: check_input_size says why
+  };
+  return {fit(h), fit(w)};
+}
+
+void ModelSpec::check_input_size(int h, int w, const std::string& src) const {
+  std::vector<std::pair<int, int>> out;
+  for (size_t k = 0; k < layers.size(); ++k) {
+    const auto& l = layers[k];
+    const std::string where = "layer " + std::to_string(k);
+    if (l.skip_from >= 0 && out[size_t(l.skip_from)] != std::make_pair(h, w))
+      fail(src, where,
+           "its skip connection from layer " + std::to_string(l.skip_from) + " is " +
+               std::to_string(out[size_t(l.skip_from)].second) + "x" +
+               std::to_string(out[size_t(l.skip_from)].first) + " but its input is " +
+               std::to_string(w) + "x" + std::to_string(h) +
+               " for this input size; use a size that is a multiple of 2^levels");
+    h = l.output_size(h);
+    w = l.output_size(w);
+    if (h <= 0 || w <= 0) fail(src, where, "the input is too small for this network");
+    out.emplace_back(h, w);
+  }
+}
+
 void ModelSpec::validate(const std::string& src) const {
   if (layers.empty()) fail(src, "", "model has no layers");
   if (!(time_step_ms > 0) || time_step_ms > 1000)
@@ -32,10 +79,22 @@ void ModelSpec::validate(const std::string& src) const {
     std::string where = "layer " + std::to_string(k);
     if (l.in_channels <= 0 || l.out_channels <= 0 || l.in_channels > 4096 || l.out_channels > 4096)
       fail(src, where, "channel counts out of range");
-    if (k > 0 && l.in_channels != layers[k - 1].out_channels)
+    if (l.skip_from != -1 && (l.skip_from < 0 || size_t(l.skip_from) + 1 >= k))
+      fail(src, where,
+           "skip_from must name an earlier layer other than the predecessor (0.." +
+               std::to_string(int(k) - 2) + "), got " + std::to_string(l.skip_from));
+    if (l.skip_from >= 0 && type != ModelType::SNN)
+      fail(src, where, "skip connections are supported in spiking models only");
+    const int fed = k == 0 ? l.in_channels
+                           : layers[k - 1].out_channels +
+                                 (l.skip_from >= 0 ? layers[size_t(l.skip_from)].out_channels : 0);
+    if (l.in_channels != fed)
       fail(src, where,
            "takes " + std::to_string(l.in_channels) + " channels but layer " +
-               std::to_string(k - 1) + " gives " + std::to_string(layers[k - 1].out_channels));
+               std::to_string(k - 1) + " gives " + std::to_string(layers[k - 1].out_channels) +
+               (l.skip_from >= 0 ? " and its skip from layer " + std::to_string(l.skip_from) + " " +
+                                       std::to_string(layers[size_t(l.skip_from)].out_channels)
+                                 : std::string()));
     if (l.kernel <= 0 || l.kernel > 15 || l.stride <= 0 || l.stride > 8 || l.padding < 0 ||
         l.padding >= l.kernel || l.output_padding < 0 || l.output_padding >= l.stride)
       fail(src, where, "kernel, stride or padding out of range");
@@ -68,8 +127,10 @@ void ModelSpec::validate(const std::string& src) const {
     fail(src, "",
          "an ANN-2D model takes 4 input channels (ann_features.h) and gives 1 output channel");
   if (input_width > 0 && input_height > 0) {
-    auto [oh, ow] = output_size(input_height, input_width);
-    if (oh <= 0 || ow <= 0) fail(src, "", "input size is too small for this network");
+    // The sensor's size: a model with skips runs on it padded to the fitted size.
+    const auto [h, w] = has_skips() ? fitted_input_size(input_height, input_width)
+                                    : std::make_pair(input_height, input_width);
+    check_input_size(h, w, src);
   }
 }
 
@@ -156,8 +217,12 @@ void check_widths(const std::vector<int>& widths, const std::string& where) {
 }
 
 ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<int>& widths,
-                               const std::vector<double>& tau_s) {
+                               const std::vector<double>& tau_s, bool skips) {
   check_widths(widths, "architecture widths");
+  if (skips && !padded)
+    fail("architecture", "",
+         "skip connections need the padded geometry (the unpadded one loses a pixel per level, "
+         "so the sizes do not meet)");
   if (!tau_s.empty() && tau_s.size() != widths.size())
     fail("architecture tau_s", "",
          "needs one time constant per level (" + std::to_string(widths.size()) + "), got " +
@@ -176,6 +241,7 @@ ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<
     LayerKind k;
     int ci, co;
     Neuron nr;
+    int skip = -1;
   };
   auto level = [&](const Neuron* table, int i) {
     Neuron nr = table[std::min(i, 2)];
@@ -186,9 +252,13 @@ ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<
   for (int i = 0; i < n; ++i)
     rows.push_back(
         {LayerKind::Conv, i == 0 ? 2 : widths[size_t(i - 1)], widths[size_t(i)], level(enc, i)});
-  for (int i = n - 1; i >= 0; --i)
-    rows.push_back({LayerKind::ConvTranspose, widths[size_t(i)], i == 0 ? 2 : widths[size_t(i - 1)],
-                    level(dec, i)});
+  // Decoder level i works at encoder level i's output resolution: with skips, level i's
+  // spikes join it (all but the bottleneck's own level).
+  for (int i = n - 1; i >= 0; --i) {
+    const bool skip = skips && i < n - 1;
+    rows.push_back({LayerKind::ConvTranspose, widths[size_t(i)] * (skip ? 2 : 1),
+                    i == 0 ? 2 : widths[size_t(i - 1)], level(dec, i), skip ? i : -1});
+  }
   ModelSpec s;
   s.name = padded ? "spikems-padded" : "spikems";
   for (const auto& r : rows) {
@@ -198,6 +268,7 @@ ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<
     l.out_channels = r.co;
     l.padding = padded ? 1 : 0;
     l.output_padding = (padded && r.k == LayerKind::ConvTranspose) ? 1 : 0;
+    l.skip_from = r.skip;
     l.neuron.theta = r.nr.theta;
     l.neuron.tau_s = r.nr.ts;
     l.neuron.tau_r = r.nr.tr;
@@ -261,6 +332,7 @@ nlohmann::json spec_to_json(const ModelSpec& s) {
                          {"padding", l.padding},
                          {"output_padding", l.output_padding},
                          {"has_delay", !l.delay.empty()}};
+    if (l.skip_from >= 0) lj["skip_from"] = l.skip_from;
     if (s.type == ModelType::SNN)
       lj["neuron"] = {
           {"theta", n.theta},
@@ -301,6 +373,7 @@ ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
       l.stride = lj.value("stride", 2);
       l.padding = lj.value("padding", 0);
       l.output_padding = lj.value("output_padding", 0);
+      l.skip_from = lj.value("skip_from", -1);
       // ANN-2D layers have no neuron; they keep the (unused) defaults.
       const auto& nj =
           s.type == ModelType::ANN2D && !lj.contains("neuron")

@@ -54,6 +54,10 @@ struct LayerSpec {
   std::vector<float> ref_kernel;  // FIR only
   std::vector<float> delay;       // optional, per output channel, in steps
   std::vector<float> bias;        // ANN-2D only, per output channel
+  // A skip connection (U-Net): the index of an earlier layer, not the predecessor, whose spikes
+  // of the same step enter this layer too, as channels after the predecessor's (in_channels
+  // counts both). Its output must have the predecessor's spatial size. -1: none.
+  int skip_from = -1;
   int64_t weight_count() const { return int64_t(in_channels) * out_channels * kernel * kernel; }
   // Spatial output size for an input size (conv: floor((H+2p-k)/s)+1;
   // convT: (H-1)s - 2p + k + output_padding).
@@ -73,6 +77,13 @@ struct ModelSpec {
 
   // Output spatial size for an input size (through all layers).
   std::pair<int, int> output_size(int height, int width) const;
+  bool has_skips() const;
+  // Checks that an input of this size reaches every layer with a positive size and that each
+  // skip connection meets its layer's input at the same size; throws Error naming the layer.
+  void check_input_size(int height, int width, const std::string& source) const;
+  // The smallest size >= (height, width) that check_input_size accepts: a network with skips
+  // pads its input there (zeros at the bottom and right; outputs stay top-left aligned).
+  std::pair<int, int> fitted_input_size(int height, int width) const;
   // Checks channel chaining, kernel/stride sanity, weight and kernel lengths; throws Error.
   void validate(const std::string& source) const;
 };
@@ -101,9 +112,12 @@ bool has_sampled_kernels(const LayerSpec& l, double time_step_ms);
 // tau_s (ms), when given, one per level: the synaptic time constant of the level's encoder and
 // decoder layers (the paper's 2, 2, 4 otherwise). Each layer delays its output by about its
 // tau_s (the kernel's peak), so a deep stack answers late: see docs/training.md.
+// skips: U-Net skip connections, encoder level i's spikes into the decoder layer that works at
+// its resolution (every decoder layer but the first); needs padded. They give the gradient of
+// a deep stack a short path to the early layers (docs/training.md, "Skip connections").
 ModelSpec spikems_architecture(bool padded, Discretisation d = Discretisation::FIR,
                                const std::vector<int>& widths = {16, 32, 64},
-                               const std::vector<double>& tau_s = {});
+                               const std::vector<double>& tau_s = {}, bool skips = false);
 // Throws Error unless widths holds 1-6 levels of 1-1024 channels each.
 void check_widths(const std::vector<int>& widths, const std::string& where);
 // The ANN-2D baseline (EVDodgeNet-like): the same 3x3 stride-2 layers and channel widths,

@@ -1,5 +1,6 @@
 #include "core/runtime/dense_reference.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/util/error.h"
@@ -126,13 +127,53 @@ DenseLayerOutput dense_layer_forward(const LayerSpec& l, double ts, const DenseT
   return forward_impl<double>(l, ts, in, eps, nu);
 }
 
+DenseTensor dense_concat_channels(const DenseTensor& a, const DenseTensor& b) {
+  if (a.T != b.T || a.H != b.H || a.W != b.W)
+    fail("dense forward", "",
+         "cannot concatenate [" + std::to_string(a.T) + ", " + std::to_string(a.H) + ", " +
+             std::to_string(a.W) + "] and [" + std::to_string(b.T) + ", " + std::to_string(b.H) +
+             ", " + std::to_string(b.W) + "] spikes on the channels");
+  DenseTensor c(a.T, a.C + b.C, a.H, a.W);
+  const size_t fa = a.frame_size(), fb = b.frame_size();
+  for (int t = 0; t < a.T; ++t) {
+    std::copy_n(&a.v[size_t(t) * fa], fa, &c.v[size_t(t) * (fa + fb)]);
+    std::copy_n(&b.v[size_t(t) * fb], fb, &c.v[size_t(t) * (fa + fb) + fa]);
+  }
+  return c;
+}
+
+DenseTensor dense_network_input(const ModelSpec& m, const DenseTensor& in) {
+  if (!m.has_skips()) return in;
+  const auto [h, w] = m.fitted_input_size(in.H, in.W);
+  m.check_input_size(h, w, m.name);
+  DenseTensor p(in.T, in.C, h, w);
+  for (int t = 0; t < in.T; ++t)
+    for (int c = 0; c < in.C; ++c)
+      for (int y = 0; y < in.H; ++y)
+        std::copy_n(&in.v[in.index(t, c, y, 0)], in.W, &p.v[p.index(t, c, y, 0)]);
+  return p;
+}
+
+DenseTensor dense_layer_input(const ModelSpec& m, size_t k, const DenseTensor& net_input,
+                              const std::vector<DenseLayerOutput>& outs) {
+  if (k == 0) return net_input;
+  const int skip = m.layers[k].skip_from;
+  if (skip < 0) return outs[k - 1].spikes;
+  return dense_concat_channels(outs[k - 1].spikes, outs[size_t(skip)].spikes);
+}
+
 std::vector<DenseLayerOutput> dense_forward(const ModelSpec& m, const DenseTensor& input) {
+  const DenseTensor net_input = dense_network_input(m, input);
   std::vector<DenseLayerOutput> outs;
-  outs.reserve(m.layers.size());  // x points into it
-  const DenseTensor* x = &input;
-  for (const auto& l : m.layers) {
-    outs.push_back(dense_layer_forward(l, m.time_step_ms, *x));
-    x = &outs.back().spikes;
+  outs.reserve(m.layers.size());
+  for (size_t k = 0; k < m.layers.size(); ++k) {
+    const LayerSpec& l = m.layers[k];
+    if (l.skip_from >= 0)
+      outs.push_back(
+          dense_layer_forward(l, m.time_step_ms, dense_layer_input(m, k, net_input, outs)));
+    else  // no copy
+      outs.push_back(
+          dense_layer_forward(l, m.time_step_ms, k == 0 ? net_input : outs[k - 1].spikes));
   }
   return outs;
 }

@@ -27,8 +27,21 @@ struct DenseLayerOutput {
 DenseLayerOutput dense_layer_forward(const LayerSpec& layer, double time_step_ms,
                                      const DenseTensor& input);
 
-// Every block in order; result k is the output of layer k.
+// Every block in order; result k is the output of layer k. A model with skips runs on its
+// fitted input size (dense_network_input) and each layer with skip_from = j takes its
+// predecessor's spikes and layer j's concatenated on the channels (dense_layer_input), as the
+// LibTorch network and the streaming runtime do; its outputs are in that padded geometry.
 std::vector<DenseLayerOutput> dense_forward(const ModelSpec& model, const DenseTensor& input);
+
+// The input the network runs on: for a model with skips, `input` zero-padded at the bottom and
+// right to model.fitted_input_size (throws Error when no size fits); `input` otherwise.
+DenseTensor dense_network_input(const ModelSpec& model, const DenseTensor& input);
+// Layer k's input: `net_input` (dense_network_input's) for k = 0, else the spikes of layer k-1
+// in `outs`, followed on the channels by those of its skip source when it has one.
+DenseTensor dense_layer_input(const ModelSpec& model, size_t k, const DenseTensor& net_input,
+                              const std::vector<DenseLayerOutput>& outs);
+// [T, Ca, H, W] and [T, Cb, H, W] -> [T, Ca + Cb, H, W]: a's channels, then b's.
+DenseTensor dense_concat_channels(const DenseTensor& a, const DenseTensor& b);
 
 // The continuous kernels sampled at n steps, untruncated (IIR layers): eps(n Ts) and nu[n].
 double srm_kernel_value(const NeuronParams& n, double time_step_ms, int step);

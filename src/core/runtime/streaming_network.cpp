@@ -3,13 +3,14 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <tuple>
 
 #include "core/util/error.h"
 
 namespace spikems {
 
 StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width)
-    : h_(height), w_(width) {
+    : h_(height), w_(width), nh_(height), nw_(width) {
   m.validate(m.name);
   if (m.type != ModelType::SNN)
     fail(m.name, "",
@@ -19,7 +20,13 @@ StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width)
     fail(m.name, "layer 0",
          "takes " + std::to_string(m.layers.front().in_channels) +
              " channels; the runtime feeds 2 (OFF, ON polarity)");
-  int h = height, w = width;
+  if (m.has_skips() && height > 0 && width > 0) {
+    // As the LibTorch network: padded at the bottom and right to the smallest size whose
+    // skips meet their layers (check_input_size says why when none does).
+    std::tie(nh_, nw_) = m.fitted_input_size(height, width);
+    m.check_input_size(nh_, nw_, m.name);
+  }
+  int h = nh_, w = nw_;
   for (size_t k = 0; k < m.layers.size(); ++k) {
     const auto& l = m.layers[k];
     if (l.output_size(h) <= 0 || l.output_size(w) <= 0)
@@ -30,14 +37,93 @@ StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width)
     layers_.back()->set_scattered_input(k == 0);  // the sensor's events, noise included
     h = layers_.back()->out_height();
     w = layers_.back()->out_width();
-    if (size_t(h) * w * l.out_channels >= (size_t(1) << 32))
+    if (size_t(h) * w * l.out_channels >= (size_t(1) << 32) ||
+        size_t(layers_.back()->in_height()) * layers_.back()->in_width() * l.in_channels >=
+            (size_t(1) << 32))  // the input, skip channels included
       fail(m.name, "layer " + std::to_string(k), "layer too large for 32-bit neuron indices");
   }
-  emitted_.resize(layers_.size());
-  now_.resize(layers_.size());
-  ahead_.resize(layers_.size());
-  in_spikes_.assign(layers_.size(), 0);
-  seconds_.assign(layers_.size(), 0.0);
+  const size_t L = layers_.size();
+  map_.resize(L);
+  depth_.assign(L, 2);
+  for (size_t k = 1; k < L; ++k) {
+    InputMap& im = map_[k];
+    im.skip = m.layers[k].skip_from;
+    if (im.skip < 0) continue;
+    im.c_prev = uint32_t(m.layers[k - 1].out_channels);
+    im.c_skip = uint32_t(m.layers[size_t(im.skip)].out_channels);
+    im.div_prev = FastDiv(im.c_prev);
+    im.div_skip = FastDiv(im.c_skip);
+    depth_[size_t(im.skip)] = std::max(depth_[size_t(im.skip)], int64_t(k) - im.skip + 1);
+  }
+  remap_input_ = nw_ != w_;
+  div_w_ = FastDiv(uint32_t(std::max(1, w_)));
+  scratch_.resize(L);
+  emitted_.resize(L);
+  now_.resize(L);
+  ahead_.resize(L);
+  in_spikes_.assign(L, 0);
+  seconds_.assign(L, 0.0);
+}
+
+const std::vector<uint32_t>& StreamingNetwork::input_of(size_t k, const std::vector<uint32_t>& a,
+                                                        const std::vector<uint32_t>* b,
+                                                        std::vector<uint32_t>& buf) const {
+  if (k == 0) {
+    if (!remap_input_) return a;
+    // (y*w + x)*2 + p -> (y*nw + x)*2 + p: monotone, so the order is kept.
+    buf.resize(a.size());
+    const uint32_t w = uint32_t(w_), nw = uint32_t(nw_);
+    for (size_t i = 0; i < a.size(); ++i) {
+      const uint32_t pos = a[i] >> 1, y = div_w_(pos);
+      buf[i] = ((y * nw + (pos - y * w)) << 1) | (a[i] & 1u);
+    }
+    return buf;
+  }
+  const InputMap& im = map_[k];
+  if (im.skip < 0) return a;
+  // Concatenated channels: (pos*C_prev + c) -> pos*C + c and (pos*C_skip + c) ->
+  // pos*C + C_prev + c, C = C_prev + C_skip. The layers group the spikes of a position, and
+  // sum them in list order, so the result is kept ascending: a merge by position when both
+  // sources are ascending (the IIR layers' output), else a sort (the FIR ring's output comes
+  // in its timing wheel's order).
+  const uint32_t cp = im.c_prev, cs = im.c_skip, c = cp + cs;
+  buf.resize(a.size() + b->size());
+  auto from_a = [&](uint32_t n) {
+    const uint32_t pos = im.div_prev(n);
+    return pos * c + (n - pos * cp);
+  };
+  auto from_b = [&](uint32_t n) {
+    const uint32_t pos = im.div_skip(n);
+    return pos * c + cp + (n - pos * cs);
+  };
+  if (std::is_sorted(a.begin(), a.end()) && std::is_sorted(b->begin(), b->end())) {
+    size_t i = 0, j = 0, o = 0;
+    while (i < a.size() && j < b->size()) {
+      const uint32_t x = from_a(a[i]), y = from_b((*b)[j]);
+      if (x < y) {
+        buf[o++] = x;
+        ++i;
+      } else {
+        buf[o++] = y;
+        ++j;
+      }
+    }
+    for (; i < a.size(); ++i) buf[o++] = from_a(a[i]);
+    for (; j < b->size(); ++j) buf[o++] = from_b((*b)[j]);
+  } else {
+    for (size_t i = 0; i < a.size(); ++i) buf[i] = from_a(a[i]);
+    for (size_t j = 0; j < b->size(); ++j) buf[a.size() + j] = from_b((*b)[j]);
+    std::sort(buf.begin(), buf.end());
+  }
+  return buf;
+}
+
+void StreamingNetwork::layer_input(size_t k, const std::vector<uint32_t>& net_input,
+                                   std::vector<uint32_t>& out) const {
+  const int skip = map_[k].skip;
+  const std::vector<uint32_t>& in = input_of(k, k == 0 ? net_input : emitted_[k - 1],
+                                             skip >= 0 ? &emitted_[size_t(skip)] : nullptr, out);
+  if (&in != &out) out = in;
 }
 
 namespace {
@@ -142,20 +228,22 @@ const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>&
   if (in_flight()) fail("streaming network", "", "step() while blocks are in flight");
   const int L = int(layers_.size());
   auto run = [&](int k) {
-    const std::vector<uint32_t>& in = k == 0 ? input : now_[size_t(k - 1)];
+    const int skip = map_[size_t(k)].skip;
+    const std::vector<uint32_t>& in =
+        input_of(size_t(k), k == 0 ? input : now_[size_t(k - 1)],
+                 skip >= 0 ? &now_[size_t(skip)] : nullptr, scratch_[size_t(k)]);
     ahead_[size_t(k)].clear();
     const auto t0 = std::chrono::steady_clock::now();
     layers_[size_t(k)]->step(t_, in.data(), in.size(), ahead_[size_t(k)]);
     seconds_[size_t(k)] +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    in_spikes_[size_t(k)] += in.size();
   };
   if (pool_) {
     sort_layers();
     pool_->run(L, [&](int i) { run(order_[size_t(i)]); });
   } else
     for (int k = 0; k < L; ++k) run(k);
-  for (int k = 0; k < L; ++k)
-    in_spikes_[size_t(k)] += (k == 0 ? input : now_[size_t(k - 1)]).size();
   emitted_.swap(now_);  // spikes of t
   now_.swap(ahead_);    // spikes of t+1; ahead_ holds buffers to reuse
   ++t_;
@@ -164,7 +252,8 @@ const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>&
 }
 
 void StreamingNetwork::run_layer_block(size_t k, int64_t t0, const std::vector<uint32_t>* in,
-                                       size_t n, std::vector<std::vector<uint32_t>>& out) {
+                                       const std::vector<uint32_t>* skip, size_t n,
+                                       std::vector<std::vector<uint32_t>>& out) {
   if (out.size() < n) out.resize(n);
   if (n == 0) return;
   out[0].swap(now_[k]);
@@ -172,8 +261,9 @@ void StreamingNetwork::run_layer_block(size_t k, int64_t t0, const std::vector<u
   for (size_t j = 0; j < n; ++j) {
     std::vector<uint32_t>& dst = j + 1 < n ? out[j + 1] : now_[k];
     dst.clear();
-    layers_[k]->step(t0 + int64_t(j), in[j].data(), in[j].size(), dst);
-    in_spikes_[k] += in[j].size();
+    const std::vector<uint32_t>& x = input_of(k, in[j], skip ? &skip[j] : nullptr, scratch_[k]);
+    layers_[k]->step(t0 + int64_t(j), x.data(), x.size(), dst);
+    in_spikes_[k] += x.size();
   }
   seconds_[k] += std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
   emitted_[k] = out[n - 1];
@@ -191,8 +281,11 @@ size_t StreamingNetwork::step_block(const std::vector<uint32_t>* inputs, size_t 
     block_[L - 1].resize(1);
     block_[L - 1][0] = step(inputs[0]);
   } else {
-    for (size_t k = 0; k < L; ++k)
-      run_layer_block(k, t_, k == 0 ? inputs : block_[k - 1].data(), n, block_[k]);
+    for (size_t k = 0; k < L; ++k) {
+      const int skip = map_[k].skip;
+      run_layer_block(k, t_, k == 0 ? inputs : block_[k - 1].data(),
+                      skip >= 0 ? block_[size_t(skip)].data() : nullptr, n, block_[k]);
+    }
     t_ += int64_t(n);
     taken_ += int64_t(n);
   }
@@ -206,27 +299,35 @@ void StreamingNetwork::start_block(const std::vector<uint32_t>* inputs, size_t n
   if (pipe_.size() != size_t(L)) {
     pipe_.resize(size_t(L));
     pipe_steps_.resize(size_t(L));
+    for (int k = 0; k < L; ++k) {
+      pipe_[size_t(k)].resize(size_t(depth_[size_t(k)]));
+      pipe_steps_[size_t(k)].resize(size_t(depth_[size_t(k)]));
+    }
     layer_t_.resize(size_t(L));
   }
   if (!in_flight()) {
     // A fresh pipeline: every layer at the network's step, no block left from an earlier one.
     for (int k = 0; k < L; ++k) {
       layer_t_[size_t(k)] = t_;
-      pipe_steps_[size_t(k)] = {0, 0};
+      std::fill(pipe_steps_[size_t(k)].begin(), pipe_steps_[size_t(k)].end(), size_t(0));
     }
   }
   round_in_ = inputs;
   round_n_ = n;
   if (!round_task_)
     round_task_ = [this](int i) {
-      // Round r: layer k runs block r - k, on what layer k-1 made of it in round r - 1.
-      const int k = order_[size_t(i)];
-      const size_t par = size_t((round_ - k) & 1);
-      const size_t nb = k == 0 ? round_n_ : pipe_steps_[size_t(k - 1)][par];
-      const std::vector<uint32_t>* in = k == 0 ? round_in_ : pipe_[size_t(k - 1)][par].data();
-      run_layer_block(size_t(k), layer_t_[size_t(k)], in, nb, pipe_[size_t(k)][par]);
-      pipe_steps_[size_t(k)][par] = nb;
-      layer_t_[size_t(k)] += int64_t(nb);
+      // Round r: layer k runs block r - k, on what layer k-1 made of it in round r - 1 (and
+      // its skip source j in round r - (k - j)).
+      const size_t k = size_t(order_[size_t(i)]);
+      const int64_t b = round_ - int64_t(k);
+      const size_t nb = k == 0 ? round_n_ : pipe_steps_[k - 1][slot(k - 1, b)];
+      const std::vector<uint32_t>* in = k == 0 ? round_in_ : pipe_[k - 1][slot(k - 1, b)].data();
+      const int skip = map_[k].skip;
+      const std::vector<uint32_t>* sk =
+          skip >= 0 ? pipe_[size_t(skip)][slot(size_t(skip), b)].data() : nullptr;
+      run_layer_block(k, layer_t_[k], in, sk, nb, pipe_[k][slot(k, b)]);
+      pipe_steps_[k][slot(k, b)] = nb;
+      layer_t_[k] += int64_t(nb);
     };
   sort_layers();
   taken_ += int64_t(n);
@@ -240,10 +341,10 @@ size_t StreamingNetwork::finish_block() {
   running_ = false;
   const size_t L = layers_.size();
   // The block the output layer just ran (round r: block r - (L-1)); none while filling.
-  const size_t par = size_t((round_ - int64_t(L - 1)) & 1);
+  const size_t s = slot(L - 1, round_ - int64_t(L - 1));
   ++round_;
-  const size_t ready = pipe_steps_[L - 1][par];
-  ready_ = &pipe_[L - 1][par];
+  const size_t ready = pipe_steps_[L - 1][s];
+  ready_ = &pipe_[L - 1][s];
   t_ += int64_t(ready);
   return ready;
 }

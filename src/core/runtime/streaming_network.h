@@ -3,9 +3,14 @@
 // potential at t depends on input before t only, since eps[0] = 0), takes the spikes its
 // predecessor emits at t as input, and computes its spikes of t+1. Layer k therefore answers
 // an input spike k steps later at the earliest.
+//
+// Skip connections (LayerSpec::skip_from = j): layer k also takes layer j's spikes of the same
+// step t, as channels after its predecessor's: (y*W + x)*C_j + c enters as
+// (y*W + x)*(C_prev + C_j) + C_prev + c. Every layer emits its spikes of t at step t, so both
+// sources are there when layer k runs. A model with skips runs on its fitted input size
+// (ModelSpec::fitted_input_size: zeros at the bottom and right), as the LibTorch network does.
 #pragma once
 
-#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -17,6 +22,7 @@
 
 #include "core/model/model_file.h"
 #include "core/runtime/streaming_layer.h"
+#include "core/util/fast_div.h"
 
 namespace spikems {
 
@@ -64,11 +70,15 @@ class TaskPool {
 class StreamingNetwork {
  public:
   // The input is [2, height, width] (channel = polarity). Throws Error when the model cannot
-  // run on that size or holds something the runtime does not support.
+  // run on that size or holds something the runtime does not support. A model with skips is
+  // built on model.fitted_input_size(height, width); the input indices stay in the caller's
+  // geometry (below) and are moved to the wider rows when the widths differ.
   StreamingNetwork(const ModelSpec& model, int height, int width);
 
-  // Advances one step with the given input spikes, input neuron index (y*W + x)*2 + p, each at
-  // most once. Returns the output layer's spikes of this step, index (y*Wo + x)*Co + c.
+  // Advances one step with the given input spikes, input neuron index (y*W + x)*2 + p with
+  // W = in_width(), each at most once (ascending keeps the first layer's scatter in address
+  // order). Returns the output layer's spikes of this step, index (y*Wo + x)*Co + c with
+  // Wo = out_width().
   const std::vector<uint32_t>& step(const std::vector<uint32_t>& input);
   // Advances n steps (inputs[j]: the input of the j-th) layer by layer: layer k runs all of
   // them before layer k+1 starts. The spikes are those of as many step() calls, but each
@@ -94,15 +104,24 @@ class StreamingNetwork {
   const std::vector<uint32_t>& block_output(size_t j) const { return (*ready_)[j]; }
   // Steps taken in whose outputs have not been returned yet (step() needs none).
   bool in_flight() const { return taken_ > t_; }
-  // Threads for step(): within a step, each layer reads only its predecessor's spikes of t
-  // (computed the step before) and writes its own of t+1, so the layers run in parallel.
-  // Results do not depend on the thread count.
+  // Threads for step(): within a step, each layer reads only its predecessor's (and skip
+  // source's) spikes of t (computed the step before) and writes its own of t+1, so the layers
+  // run in parallel. Results do not depend on the thread count.
   void set_threads(int n);
 
   int64_t steps_done() const { return t_; }                  // steps whose output was returned
   int latency_steps() const { return int(layers_.size()); }  // minimum, one per layer
+  // The caller's sensor size, the geometry of the input indices.
   int in_height() const { return h_; }
   int in_width() const { return w_; }
+  // The size the first layer works on: in_* padded to the fitted size for a model with skips
+  // (zeros at the bottom and right), in_* otherwise.
+  int net_height() const { return nh_; }
+  int net_width() const { return nw_; }
+  // The output layer's geometry (of the net_* input): it may be smaller than the sensor
+  // (padding 0) or larger (a padded model on a size that is not a multiple of 2^levels, or one
+  // with skips). Output pixel (y, x) is sensor pixel (y, x), top-left aligned; callers ignore
+  // the output pixels beyond the sensor.
   int out_channels() const { return layers_.back()->out_channels(); }
   int out_height() const { return layers_.back()->out_height(); }
   int out_width() const { return layers_.back()->out_width(); }
@@ -111,19 +130,44 @@ class StreamingNetwork {
   // The spikes layer k emitted at its last step (with blocks in flight, layers are at
   // different steps: compare once nothing is in flight).
   const std::vector<uint32_t>& layer_spikes(size_t k) const { return emitted_[k]; }
+  // The input layer k took at the last step, into `out`, in its own geometry: the network
+  // input (`net_input`, what was given to that step) for k = 0, else its predecessor's spikes
+  // with its skip source's concatenated. For tools that replay a layer; nothing in flight.
+  void layer_input(size_t k, const std::vector<uint32_t>& net_input,
+                   std::vector<uint32_t>& out) const;
   std::vector<LayerStats> stats() const;
   uint64_t total_synops() const;
 
  private:
-  int h_, w_;
+  int h_, w_;                  // the caller's sensor
+  int nh_, nw_;                // the first layer's input (fitted for skips)
   int64_t t_ = 0, taken_ = 0;  // steps whose output was returned; steps taken in
   std::vector<std::unique_ptr<StreamingLayer>> layers_;
+  // How layer k's input is made from its sources: for layer 0, the sensor rows moved to the
+  // network's width (when they differ); for a layer with a skip, the concatenation.
+  struct InputMap {
+    int skip = -1;                    // skip source layer
+    uint32_t c_prev = 0, c_skip = 0;  // channels of the predecessor and the skip source
+    FastDiv div_prev, div_skip;       // by c_prev, c_skip (positions of their spikes)
+  };
+  std::vector<InputMap> map_;
+  FastDiv div_w_;                               // by w_ (the input's rows)
+  bool remap_input_ = false;                    // nw_ != w_
+  std::vector<std::vector<uint32_t>> scratch_;  // per layer: its input of one step, when built
+  // Layer k's input of one step from `a` (its predecessor's spikes, or the network input for
+  // k = 0) and `b` (its skip source's spikes of the same step, or null): `a` itself when it
+  // needs no change, else `buf` filled. Ascending when the sources are.
+  const std::vector<uint32_t>& input_of(size_t k, const std::vector<uint32_t>& a,
+                                        const std::vector<uint32_t>* b,
+                                        std::vector<uint32_t>& buf) const;
   // Per layer: spikes emitted at the last step, spikes of the coming step, and a buffer the
   // layers write the step after that into.
   std::vector<std::vector<uint32_t>> emitted_, now_, ahead_;
-  // Layer k's n steps from step t0 on inputs in[0 .. n): out[j] gets the spikes it emits at
-  // step t0+j (out[0]: those computed before, now_[k]); now_[k] then holds those of t0+n.
-  void run_layer_block(size_t k, int64_t t0, const std::vector<uint32_t>* in, size_t n,
+  // Layer k's n steps from step t0 on inputs in[0 .. n) (and its skip source's spikes of the
+  // same steps, skip[0 .. n), or null): out[j] gets the spikes it emits at step t0+j (out[0]:
+  // those computed before, now_[k]); now_[k] then holds those of t0+n.
+  void run_layer_block(size_t k, int64_t t0, const std::vector<uint32_t>* in,
+                       const std::vector<uint32_t>* skip, size_t n,
                        std::vector<std::vector<uint32_t>>& out);
   // The layer tasks of the running round and its input.
   std::function<void(int)> round_task_;
@@ -133,10 +177,18 @@ class StreamingNetwork {
   void sort_layers();  // order_: longest first
   // step_block() on one thread: per layer, the spikes it emits at each step of the block.
   std::vector<std::vector<std::vector<uint32_t>>> block_;
-  // The pipeline (threads): per layer, the same for its blocks of even and odd rounds, their
-  // step counts, and the step each layer is at. Round r: layer k works on block r - k.
-  std::vector<std::array<std::vector<std::vector<uint32_t>>, 2>> pipe_;
-  std::vector<std::array<size_t, 2>> pipe_steps_;
+  // The pipeline (threads): per layer, the same for its last depth_[k] blocks (block b in
+  // slot b mod depth_[k]), their step counts, and the step each layer is at. Round r: layer k
+  // works on block r - k, reading block r - k of layer k-1 (made in round r - 1) and of its
+  // skip source j (made in round r - (k - j)); layer j has written k - j blocks more since,
+  // so it keeps depth_[j] = k - j + 1 slots (2 for the predecessor alone).
+  std::vector<std::vector<std::vector<std::vector<uint32_t>>>> pipe_;
+  std::vector<std::vector<size_t>> pipe_steps_;
+  std::vector<int64_t> depth_;
+  size_t slot(size_t k, int64_t block) const {
+    const int64_t d = depth_[k];
+    return size_t(((block % d) + d) % d);
+  }
   std::vector<int64_t> layer_t_;
   int64_t round_ = 0;
   const std::vector<std::vector<uint32_t>>* ready_ = nullptr;

@@ -14,16 +14,34 @@ SpikeMSNetworkImpl::SpikeMSNetworkImpl(const ModelSpec& spec, SpikeGradient grad
   }
 }
 
+torch::Tensor SpikeMSNetworkImpl::input_of(size_t k, const torch::Tensor& x,
+                                           const std::vector<torch::Tensor>& out) const {
+  if (k == 0) {
+    if (!spec_.has_skips()) return x;
+    const int64_t d = x.dim(), h = x.size(d - 2), w = x.size(d - 1);
+    const auto [fh, fw] = spec_.fitted_input_size(int(h), int(w));
+    spec_.check_input_size(fh, fw, spec_.name);
+    if (fh == h && fw == w) return x;
+    return torch::constant_pad_nd(x, {0, fw - w, 0, fh - h}, 0);  // bottom and right
+  }
+  const int skip = spec_.layers[k].skip_from;
+  if (skip < 0) return out[k - 1];
+  return torch::cat({out[k - 1], out[size_t(skip)]}, 2);  // [T, B, C, H, W]: channels
+}
+
 torch::Tensor SpikeMSNetworkImpl::forward(const torch::Tensor& x) {
-  torch::Tensor s = x;
-  for (auto& l : layers_) s = l->forward(s);
-  return s;
+  if (!spec_.has_skips()) {
+    torch::Tensor s = x;
+    for (auto& l : layers_) s = l->forward(s);
+    return s;
+  }
+  return forward_all(x).back();
 }
 
 std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all(const torch::Tensor& x) {
   std::vector<torch::Tensor> out;
-  torch::Tensor s = x;
-  for (auto& l : layers_) out.push_back(s = l->forward(s));
+  for (size_t k = 0; k < layers_.size(); ++k)
+    out.push_back(layers_[k]->forward(input_of(k, x, out)));
   return out;
 }
 
@@ -36,19 +54,18 @@ std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all_truncated(const torch
   std::vector<torch::Tensor> warm_in, warm_out;
   {
     torch::NoGradGuard ng;
-    torch::Tensor s = x.narrow(0, 0, w0);
-    for (auto& l : layers_) {
-      warm_in.push_back(s);
-      warm_out.push_back(s = l->forward(s));
+    const torch::Tensor xw = x.narrow(0, 0, w0);
+    for (size_t k = 0; k < layers_.size(); ++k) {
+      warm_in.push_back(input_of(k, xw, warm_out));
+      warm_out.push_back(layers_[k]->forward(warm_in.back()));
     }
   }
   // Pass 2: the window with gradients, each layer continuing from its warm-up.
   std::vector<torch::Tensor> out;
-  torch::Tensor s = x.narrow(0, w0, T - w0);
-  for (size_t k = 0; k < layers_.size(); ++k) {
-    s = layers_[k]->forward_window(torch::cat({warm_in[k], s}, 0), w0, warm_out[k]);
-    out.push_back(s);
-  }
+  const torch::Tensor xs = x.narrow(0, w0, T - w0);
+  for (size_t k = 0; k < layers_.size(); ++k)
+    out.push_back(layers_[k]->forward_window(torch::cat({warm_in[k], input_of(k, xs, out)}, 0), w0,
+                                             warm_out[k]));
   return out;
 }
 

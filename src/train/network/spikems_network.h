@@ -1,4 +1,5 @@
-// The SpikeMS network (or any stack of spiking layers) built from a ModelSpec.
+// The SpikeMS network (or any stack of spiking layers, with skip connections) built from a
+// ModelSpec.
 //
 // Layout: time-major spikes [T, B, C, H, W] (float; spikes are 1/Ts). Each layer is a
 // SpikingLayer (block/spiking_layer.h). The output grid is aligned to the input grid by its
@@ -30,6 +31,10 @@ class SpikeMSNetworkImpl : public torch::nn::Module {
   // layer; their values equal forward_all(x)'s. w0 = 0 is forward_all.
   std::vector<torch::Tensor> forward_all_truncated(const torch::Tensor& x, int64_t w0);
 
+  // Layer k's input: the network input, its predecessor's spikes, or those and its skip
+  // source's concatenated on the channels (out: the spikes of layers 0 .. k-1).
+  torch::Tensor input_of(size_t k, const torch::Tensor& x,
+                         const std::vector<torch::Tensor>& out) const;
   // The spec with the current parameter values (for save_model).
   ModelSpec to_spec() const;
   void set_gradient(SpikeGradient g);

@@ -204,6 +204,9 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.channels.empty() || c.channels.size() > 6)
     b.bad("model", "channels", "needs 1 to 6 encoder levels (the paper: [16, 32, 64])");
   b.bind_list("model", "tau_s", c.tau_s);
+  b.bind("model", "skips", c.skips);
+  if (c.skips && (!c.padded || c.type != "snn"))
+    b.bad("model", "skips", "skip connections need a spiking model with padded = true");
   b.bind("model", "tau_rho", c.tau_rho);
   if (c.tau_rho != 0 && !(c.tau_rho >= 0.01 && c.tau_rho <= 100))
     b.bad("model", "tau_rho", "must lie in 0.01..100 (or 0: the model's own)");

@@ -27,6 +27,9 @@ struct TrainConfig {
   // Synaptic time constant (ms) per level, encoder and decoder layer alike (empty: the
   // paper's 2, 2, 4, levels past the third 4). Each layer answers ~tau_s late.
   std::vector<double> tau_s;
+  // U-Net skip connections (encoder level i into the decoder layer at its resolution): the
+  // gradient's short path through a deep stack (docs/training.md, "Skip connections").
+  bool skips = false;
   // The surrogate's width in units of theta for every layer (0: keep the model's, the
   // authors' 0.3). Training only: the forward pass does not depend on it.
   double tau_rho = 0;

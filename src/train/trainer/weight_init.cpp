@@ -14,8 +14,9 @@ std::vector<double> init_weights_from_data(SpikeMSNetwork& net, const torch::Ten
   torch::NoGradGuard ng;
   auto gen = at::detail::createCPUGenerator(seed);
   std::vector<double> reached;
-  torch::Tensor x = input;
+  std::vector<torch::Tensor> outs;
   for (size_t k = 0; k < net->size(); ++k) {
+    const torch::Tensor x = net->input_of(k, input, outs);
     SpikingLayer& l = net->layer(k);
     const auto sz = l->weight.sizes();
     const double fan_in =
@@ -33,7 +34,7 @@ std::vector<double> init_weights_from_data(SpikeMSNetwork& net, const torch::Ten
     }
     const double r = rate_at(hi);
     reached.push_back(r);
-    x = l->forward(x);
+    outs.push_back(l->forward(x));
   }
   return reached;
 }

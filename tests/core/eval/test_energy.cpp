@@ -84,6 +84,28 @@ TEST(Energy, MacsOfTheWholeAnn2dByHand) {
                          96 * 16 * 1));
 }
 
+// A model with skips is counted on the size the runtime pads a 21x13 sensor to (23x15), and
+// a decoder layer's input channels include its skip source's.
+TEST(Energy, SkipModelShapesAreTheRuntimes) {
+  const ModelSpec m = spikems_architecture(true, Discretisation::IIR, {4, 6, 8}, {}, true);
+  const auto s = layer_shapes(m, 13, 21);
+  ASSERT_EQ(s.size(), 6u);
+  EXPECT_EQ(s[0].in_height, 15);
+  EXPECT_EQ(s[0].in_width, 23);
+  // Layer 4: layer 3's 6 channels and layer 1's 6, at 4x6 -> 8x12.
+  EXPECT_EQ(s[4].in_channels, 12);
+  EXPECT_EQ(s[4].in_height, 4);
+  EXPECT_EQ(s[4].in_width, 6);
+  EXPECT_EQ(ann_macs(s[4]), 4u * 6 * 12 * 4 * 9);
+  EXPECT_EQ(s[5].out_height, 16);
+  EXPECT_EQ(s[5].out_width, 24);
+  StreamingNetwork net(m, 13, 21);
+  net.step({in(3, 4, 1, 21)});
+  EnergyReport r;
+  EXPECT_NO_THROW(fill_layers(r, net, m));  // neuron counts agree with the runtime's layers
+  EXPECT_EQ(r.layers[5].neurons, 16u * 24 * 2);
+}
+
 TEST(Energy, PerSampleValuesAndEnergy) {
   const ModelSpec m = one_layer(LayerKind::Conv, 2, 3);
   StreamingNetwork net(m, 5, 5);

@@ -226,6 +226,109 @@ TEST(ModelFile, ValidateRejectsBrokenChainAndNaN) {
   EXPECT_THROW(s.validate("x"), Error);
 }
 
+// The error of f() contains every needle.
+template <class F>
+static void expect_error(F&& f, std::initializer_list<const char*> needles) {
+  try {
+    f();
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    for (const char* n : needles)
+      EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
+  }
+}
+
+// The U-Net variant: decoder layer 4 takes layer 1's spikes too, layer 5 layer 0's; skip_from
+// goes through the file (written only where set) and validate() checks it.
+TEST(ModelFile, SkipFromRoundTripsAndIsValidated) {
+  ModelSpec s = spikems_architecture(true, Discretisation::FIR, {4, 6, 8}, {}, true);
+  const int skip[] = {-1, -1, -1, -1, 1, 0}, ci[] = {2, 4, 6, 8, 6 + 6, 4 + 4};
+  ASSERT_EQ(s.layers.size(), 6u);
+  for (size_t k = 0; k < 6; ++k) {
+    EXPECT_EQ(s.layers[k].skip_from, skip[k]) << k;
+    EXPECT_EQ(s.layers[k].in_channels, ci[k]) << k;
+  }
+  EXPECT_TRUE(s.has_skips());
+  EXPECT_FALSE(spikems_architecture(true, Discretisation::FIR, {4, 6, 8}).has_skips());
+  EXPECT_THROW(spikems_architecture(false, Discretisation::FIR, {4, 6, 8}, {}, true), Error);
+  for (auto& l : s.layers)
+    for (size_t i = 0; i < l.weight.size(); ++i) l.weight[i] = float(std::cos(double(i) * 0.1));
+  const auto j = spec_to_json(s);
+  EXPECT_FALSE(j["layers"][0].contains("skip_from"));
+  EXPECT_EQ(j["layers"][4]["skip_from"], 1);
+  const auto dir = test::scratch_dir();
+  save_model(dir + "/skip.safetensors", s);
+  const ModelSpec r = load_model(dir + "/skip.safetensors");
+  ASSERT_EQ(r.layers.size(), 6u);
+  for (size_t k = 0; k < 6; ++k) {
+    EXPECT_EQ(r.layers[k].skip_from, skip[k]) << k;
+    EXPECT_EQ(r.layers[k].in_channels, ci[k]) << k;
+    EXPECT_EQ(r.layers[k].weight, s.layers[k].weight) << k;
+  }
+  EXPECT_NO_THROW(r.validate("r"));
+
+  ModelSpec b = s;  // the predecessor is no skip
+  b.layers[4].skip_from = 3;
+  expect_error([&] { b.validate("m"); }, {"layer 4", "skip_from", "0..2", "got 3"});
+  b = s;
+  b.layers[5].skip_from = 7;  // out of range: later layers are refused as well
+  expect_error([&] { b.validate("m"); }, {"layer 5", "got 7"});
+  b.layers[5].skip_from = 5;
+  expect_error([&] { b.validate("m"); }, {"layer 5", "got 5"});
+  b.layers[5].skip_from = -2;
+  expect_error([&] { b.validate("m"); }, {"layer 5", "got -2"});
+  b = s;
+  b.layers[1].skip_from = 0;  // layer 0 is layer 1's predecessor
+  expect_error([&] { b.validate("m"); }, {"layer 1", "got 0"});
+  b = s;  // in_channels without the skip's
+  b.layers[4].in_channels = 6;
+  b.layers[4].weight.resize(size_t(b.layers[4].weight_count()));
+  expect_error([&] { b.validate("m"); },
+               {"layer 4", "takes 6 channels", "layer 3 gives 6", "skip from layer 1 6"});
+  b = s;  // a skip the chain does not expect
+  b.layers[4].skip_from = -1;
+  expect_error([&] { b.validate("m"); }, {"layer 4", "takes 12 channels"});
+
+  // The ANN-2D baseline has no skips.
+  ModelSpec a = ann2d_architecture({4, 6, 8});
+  a.layers[4].skip_from = 1;
+  a.layers[4].in_channels += a.layers[1].out_channels;
+  a.layers[4].weight.resize(size_t(a.layers[4].weight_count()));
+  expect_error([&] { a.validate("ann"); }, {"layer 4", "spiking models only"});
+}
+
+// Sizes for the 3-level padded network with skips: a conv (3x3, stride 2, padding 1) gives
+// ceil(n/2), a transposed conv 2n, and a skip needs its source's size to equal the decoder
+// layer's input. For n = 260: 130 -> 65 -> 33, then 66 != 65 (layer 1) at layer 4; 261, 262
+// give 131 -> 66 -> 33 -> 66 -> 132 != 131 (layer 0) at layer 5; 263 gives 132 -> 66 -> 33 ->
+// 66 -> 132 -> 264: fits, its output one row larger. For n = 346: 173 -> 87 -> 44 -> 88 != 87;
+// 347, 348 give 87 as well; 349, 350 give 175 -> 88 -> 44 -> 88 -> 176 != 175; 351 gives 176
+// -> 88 -> 44 -> 88 -> 176 -> 352. Sizes that are multiples of 8 fit as they are.
+TEST(Architecture, SkipsFitTheirInputSize) {
+  const ModelSpec s = spikems_architecture(true, Discretisation::IIR, {16, 32, 64}, {}, true);
+  EXPECT_EQ(s.fitted_input_size(260, 346), std::make_pair(263, 351));
+  EXPECT_EQ(s.output_size(263, 351), std::make_pair(264, 352));
+  EXPECT_EQ(s.fitted_input_size(256, 344), std::make_pair(256, 344));
+  EXPECT_EQ(s.fitted_input_size(13, 21), std::make_pair(15, 23));
+  EXPECT_EQ(s.fitted_input_size(1, 8), std::make_pair(7, 8));  // 7 -> 4 -> 2 -> 1 -> 2 -> 4 -> 8
+  EXPECT_NO_THROW(s.check_input_size(263, 351, "m"));
+  EXPECT_NO_THROW(s.check_input_size(256, 344, "m"));
+  expect_error(
+      [&] { s.check_input_size(260, 346, "m.safetensors"); },
+      {"m.safetensors", "layer 4", "skip connection from layer 1 is 87x65", "its input is 88x66"});
+  expect_error([&] { s.check_input_size(262, 351, "m"); },
+               {"layer 5", "skip connection from layer 0 is 176x131", "its input is 176x132"});
+  // Without skips any size passes that reaches every layer; the fitted size is the input's.
+  const ModelSpec p = spikems_architecture(true, Discretisation::IIR);
+  EXPECT_NO_THROW(p.check_input_size(260, 346, "m"));
+  EXPECT_EQ(p.fitted_input_size(260, 346), std::make_pair(260, 346));
+  // The sensor size a model was made for is the size before the padding.
+  ModelSpec m = s;
+  m.input_width = 346;
+  m.input_height = 260;
+  EXPECT_NO_THROW(m.validate("m"));
+}
+
 namespace spikems {
 namespace {
 

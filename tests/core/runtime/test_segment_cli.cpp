@@ -221,14 +221,20 @@ TEST(SegmentCli, InterruptCommitsCompleteOutput) {
   std::string model = write_pass_off_model(d);
   std::string out;
   // The segment process writes its own pid, so the signal reaches it (not a subshell); the
-  // script waits for that file (a loaded machine may start the process late).
+  // script waits for that file, then until the process catches SIGINT (/proc's SigCgt, bit 2):
+  // a background job starts with SIGINT ignored, so a signal sent before spikems installs its
+  // handler (~0.5 s in on a loaded machine) would be lost.
   std::string script =
       "( printf '1000 3 4 0\\n2000 5 5 1\\n'; sleep 2; printf '3000 6 6 0\\n'; "
       "sleep 1 ) 2>/dev/null | sh -c 'echo $$ > " +
       d + "/pid; exec " + spikems_binary() + " segment --model " + model +
       " --input - --width 16 --height 12 --out " + d + "/live.txt' & P=$!; i=0; while [ ! -s " + d +
-      "/pid ] && [ $i -lt 100 ]; do sleep 0.1; " + "i=$((i+1)); done; sleep 0.5; kill -INT $(cat " +
-      d + "/pid); wait $P; echo rc=$?";
+      "/pid ] && [ $i -lt 100 ]; do sleep 0.1; " + "i=$((i+1)); done; Q=$(cat " + d +
+      "/pid); i=0; while [ $i -lt 200 ]; do m=$(sed -n 's/^SigCgt:[[:space:]]*//p' "
+      "/proc/$Q/status); "
+      "[ \"$(cat /proc/$Q/comm)\" = spikems ] && [ -n \"$m\" ] && [ $((0x$m & 2)) -ne 0 ] && "
+      "break; sleep 0.05; i=$((i+1)); done; "
+      "sleep 0.2; kill -INT $Q; wait $P; echo rc=$?";
   std::ofstream(d + "/run.sh") << script << "\n";
   run_command("sh " + d + "/run.sh", &out);
   EXPECT_NE(out.find("rc=0"), std::string::npos) << out;

@@ -90,9 +90,8 @@ Diff compare_layer(StreamingLayer& sl, const DenseTensor& in, const DenseLayerOu
   return d;
 }
 
-ModelSpec random_model(bool padded, Discretisation disc, RefractoryShape ref, uint32_t seed,
-                       float gain) {
-  ModelSpec m = spikems_architecture(padded, disc);
+// Random weights on `m` (the paper's geometry unless given), leaning positive.
+ModelSpec random_weights(ModelSpec m, RefractoryShape ref, uint32_t seed, float gain) {
   std::mt19937 rng(seed);
   for (auto& l : m.layers) {
     l.neuron.refractory = ref;
@@ -103,6 +102,11 @@ ModelSpec random_model(bool padded, Discretisation disc, RefractoryShape ref, ui
   }
   fill_fir_kernels(m);
   return m;
+}
+
+ModelSpec random_model(bool padded, Discretisation disc, RefractoryShape ref, uint32_t seed,
+                       float gain) {
+  return random_weights(spikems_architecture(padded, disc), ref, seed, gain);
 }
 
 // Random spikes (rate p) or a bar sweeping right with background noise.
@@ -357,95 +361,275 @@ void expect_same_counts(const StreamingNetwork& a, const StreamingNetwork& b) {
 // Threads change nothing: every layer's spikes and SynOps are identical step by step. Two
 // threads on a machine of two or more cores take the pool's spinning path, more threads
 // than cores its sleeping one.
+// Runs `in` through step() on one network and on another with `threads` threads: every
+// layer's spikes (as sets: threads may order a step's spikes differently) and the counts must
+// be identical.
+void expect_threads_identical(const ModelSpec& m, const DenseTensor& in, int threads) {
+  StreamingNetwork a(m, in.H, in.W), b(m, in.H, in.W);
+  b.set_threads(threads);
+  size_t total = 0;
+  for (int t = 0; t < in.T; ++t) {
+    auto s = spikes_at(in, t);
+    a.step(s);
+    b.step(s);
+    for (size_t k = 0; k < m.layers.size(); ++k) {
+      auto x = a.layer_spikes(k), y = b.layer_spikes(k);
+      std::sort(x.begin(), x.end());
+      std::sort(y.begin(), y.end());
+      ASSERT_EQ(x, y) << "step " << t << " layer " << k;
+      total += x.size();
+    }
+  }
+  EXPECT_GT(total, 100u);
+  expect_same_counts(a, b);
+}
+
 TEST(StreamingNetwork, ThreadsGiveIdenticalResults) {
   for (int threads : {2, 3, 6})
     for (auto disc : {Discretisation::FIR, Discretisation::IIR}) {
       SCOPED_TRACE(std::to_string(threads) + " threads");
-      ModelSpec m = random_model(true, disc, RefractoryShape::SpikeMS, 13, 1.0f);
-      DenseTensor in = make_input(40, 24, 32, false, 14);
-      StreamingNetwork a(m, 24, 32), b(m, 24, 32);
-      b.set_threads(threads);
-      size_t total = 0;
-      for (int t = 0; t < in.T; ++t) {
-        auto s = spikes_at(in, t);
-        a.step(s);
-        b.step(s);
-        for (size_t k = 0; k < m.layers.size(); ++k) {
-          auto x = a.layer_spikes(k), y = b.layer_spikes(k);
-          std::sort(x.begin(), x.end());
-          std::sort(y.begin(), y.end());
-          ASSERT_EQ(x, y) << "step " << t << " layer " << k;
-          total += x.size();
-        }
-      }
-      EXPECT_GT(total, 100u);
-      expect_same_counts(a, b);
+      expect_threads_identical(random_model(true, disc, RefractoryShape::SpikeMS, 13, 1.0f),
+                               make_input(40, 24, 32, false, 14), threads);
     }
 }
 
-// Blocks of steps taken layer by layer (step_block) give the spikes of step-by-step calls:
-// the output of every step, in order, every layer's spikes whenever nothing is in flight, and
-// the counts. Block sizes vary (0 included). With threads the layers form a pipeline (outputs
-// come layers - 1 calls later); it is drained in the middle, a plain step() taken, and
-// restarted.
+// Runs `in` (47 steps) through step() on one network and through step_block() on another
+// with `threads` threads, in blocks of varying sizes (0 included; with threads the layers form
+// a pipeline, outputs come layers - 1 calls later; it is drained in the middle, a plain step()
+// taken, and restarted): the output of every step in order, every layer's spikes whenever
+// nothing is in flight, and the counts must be identical.
+void expect_blocks_identical(const ModelSpec& m, const DenseTensor& in, int threads) {
+  StreamingNetwork a(m, in.H, in.W), b(m, in.H, in.W);
+  b.set_threads(threads);
+  std::vector<std::vector<uint32_t>> inputs, want, got;
+  auto take = [&](size_t ready) {
+    for (size_t j = 0; j < ready; ++j) got.push_back(b.block_output(j));
+  };
+  auto same_layers = [&] {
+    ASSERT_EQ(b.steps_done(), a.steps_done());
+    for (size_t k = 0; k < m.layers.size(); ++k)
+      ASSERT_EQ(a.layer_spikes(k), b.layer_spikes(k))
+          << "step " << a.steps_done() << " layer " << k;
+  };
+  int t = 0;
+  size_t lagged = 0;
+  for (int n : {1, 3, 0, 7, 2, 16, -1, 1, 5, 4, 1, 6}) {
+    if (n < 0) {  // drain, then one plain step
+      while (b.in_flight()) take(b.step_block(nullptr, 0));
+      same_layers();
+      inputs.assign(1, spikes_at(in, t++));
+      want.push_back(a.step(inputs[0]));
+      got.push_back(b.step(inputs[0]));
+      same_layers();
+      continue;
+    }
+    inputs.clear();
+    for (int j = 0; j < n; ++j, ++t) {
+      inputs.push_back(spikes_at(in, t));
+      want.push_back(a.step(inputs.back()));
+    }
+    const size_t ready = b.step_block(inputs.data(), size_t(n));
+    if (threads == 1) {
+      EXPECT_EQ(ready, size_t(n));
+    }
+    lagged += size_t(n) - ready;
+    take(ready);
+    if (!b.in_flight()) same_layers();
+  }
+  if (threads > 1) {
+    EXPECT_GT(lagged, 10u);  // the pipeline did delay outputs
+  }
+  while (b.in_flight()) take(b.step_block(nullptr, 0));
+  ASSERT_EQ(t, in.T);
+  same_layers();
+  ASSERT_EQ(got.size(), want.size());
+  size_t total = 0;
+  for (size_t s = 0; s < want.size(); ++s) {
+    ASSERT_EQ(got[s], want[s]) << "step " << s;
+    total += want[s].size();
+  }
+  EXPECT_GT(total, 20u);
+  expect_same_counts(a, b);
+}
+
+// Blocks of steps taken layer by layer (step_block) give the spikes of step-by-step calls.
 TEST(StreamingNetwork, BlocksGiveIdenticalResults) {
   for (int threads : {1, 2, 3})
     for (auto disc : {Discretisation::FIR, Discretisation::IIR}) {
       SCOPED_TRACE(std::to_string(threads) + " threads");
       ModelSpec m = random_model(true, disc, RefractoryShape::SpikeMS, 21, 1.0f);
-      DenseTensor in = make_input(47, 24, 32, true, 22);
-      StreamingNetwork a(m, 24, 32), b(m, 24, 32);
-      b.set_threads(threads);
-      std::vector<std::vector<uint32_t>> inputs, want, got;
-      auto take = [&](size_t ready) {
-        for (size_t j = 0; j < ready; ++j) got.push_back(b.block_output(j));
-      };
-      auto same_layers = [&] {
-        ASSERT_EQ(b.steps_done(), a.steps_done());
-        for (size_t k = 0; k < m.layers.size(); ++k)
-          ASSERT_EQ(a.layer_spikes(k), b.layer_spikes(k))
-              << "step " << a.steps_done() << " layer " << k;
-      };
-      int t = 0;
-      size_t lagged = 0;
-      for (int n : {1, 3, 0, 7, 2, 16, -1, 1, 5, 4, 1, 6}) {
-        if (n < 0) {  // drain, then one plain step
-          while (b.in_flight()) take(b.step_block(nullptr, 0));
-          same_layers();
-          inputs.assign(1, spikes_at(in, t++));
-          want.push_back(a.step(inputs[0]));
-          got.push_back(b.step(inputs[0]));
-          same_layers();
-          continue;
-        }
-        inputs.clear();
-        for (int j = 0; j < n; ++j, ++t) {
-          inputs.push_back(spikes_at(in, t));
-          want.push_back(a.step(inputs.back()));
-        }
-        const size_t ready = b.step_block(inputs.data(), size_t(n));
-        if (threads == 1) {
-          EXPECT_EQ(ready, size_t(n));
-        }
-        lagged += size_t(n) - ready;
-        take(ready);
-        if (!b.in_flight()) same_layers();
-      }
-      if (threads > 1) {
-        EXPECT_GT(lagged, 10u);  // the pipeline did delay outputs
-      }
-      while (b.in_flight()) take(b.step_block(nullptr, 0));
-      ASSERT_EQ(t, in.T);
-      same_layers();
-      ASSERT_EQ(got.size(), want.size());
-      size_t total = 0;
-      for (size_t s = 0; s < want.size(); ++s) {
-        ASSERT_EQ(got[s], want[s]) << "step " << s;
-        total += want[s].size();
-      }
-      EXPECT_GT(total, 20u);
-      expect_same_counts(a, b);
+      expect_blocks_identical(m, make_input(47, 24, 32, true, 22), threads);
     }
+}
+
+// The 3-level U-Net of spikems_architecture(skips = true), narrow: layer 4 (convT 12 -> 4)
+// takes layer 3's 6 channels and layer 1's 6, layer 5 (convT 8 -> 2) layer 4's 4 and layer
+// 0's 4. Random weights leaning positive so that every layer fires.
+ModelSpec random_skip_model(Discretisation disc, uint32_t seed,
+                            RefractoryShape ref = RefractoryShape::SpikeMS, float gain = 1.0f) {
+  return random_weights(spikems_architecture(true, disc, {4, 6, 8}, {}, true), ref, seed, gain);
+}
+
+// A sensor of 21x13 (not a multiple of 8): the skips need 23x15 (each conv halves rounding up,
+// each convT doubles: 23 -> 12 -> 6 -> 3 -> 6 -> 12 -> 24 meets layer 1's 6 and layer 0's 12;
+// 21 and 22 give 11 -> 6 -> 3 -> 6 -> 12, and layer 0's 11 misses 12), so the runtime pads
+// the input to 23x15 and moves its rows to width 23.
+constexpr int kSkipH = 13, kSkipW = 21;
+
+// Every layer's spikes at every step of the whole network (step()) equal the dense forward's
+// (dense_forward pads the input and concatenates the skips itself); each layer teacher forced
+// on the dense concatenated input as well. Exactly: the runtime sums in another order, but no
+// decision of these seeds lies within rounding of theta. The skips matter on this input: without
+// their weights layers 4 and 5 spike differently, so a runtime that dropped them would fail. FIR
+// with SLAYER's refractory form runs the ring layers, whose spikes come unsorted (the
+// concatenation sorts them).
+TEST(StreamingNetwork, SkipModelMatchesDense) {
+  for (auto [disc, ref] : {std::pair{Discretisation::FIR, RefractoryShape::SpikeMS},
+                           {Discretisation::IIR, RefractoryShape::SpikeMS},
+                           {Discretisation::FIR, RefractoryShape::Slayer}}) {
+    SCOPED_TRACE(std::string(disc == Discretisation::FIR ? "FIR" : "IIR") +
+                 (ref == RefractoryShape::Slayer ? ", SLAYER refractory" : ""));
+    const ModelSpec m = random_skip_model(disc, 41, ref, 0.3f);
+    const DenseTensor input = make_input(40, kSkipH, kSkipW, false, 42);
+    const auto outs = dense_forward(m, input);
+    const DenseTensor net_in = dense_network_input(m, input);
+    ASSERT_EQ(net_in.H, 15);
+    ASSERT_EQ(net_in.W, 23);
+    ASSERT_EQ(outs.back().spikes.H, 16);
+    ASSERT_EQ(outs.back().spikes.W, 24);
+    // Teacher forced, layer by layer.
+    for (size_t k = 0; k < m.layers.size(); ++k) {
+      const DenseTensor in = dense_layer_input(m, k, net_in, outs);
+      ASSERT_EQ(in.C, m.layers[k].in_channels);
+      auto sl = StreamingLayer::create(m.layers[k], m.time_step_ms, in.H, in.W);
+      Diff d = compare_layer(*sl, in, outs[k], m.layers[k].neuron.theta);
+      EXPECT_EQ(d.far_from_threshold, 0) << "layer " << k;
+      EXPECT_EQ(d.mismatches, 0) << "layer " << k;
+      EXPECT_LT(d.max_du, 1e-4) << "layer " << k;
+    }
+    // The whole network, every layer at every step.
+    StreamingNetwork net(m, kSkipH, kSkipW);
+    EXPECT_EQ(net.in_height(), kSkipH);
+    EXPECT_EQ(net.in_width(), kSkipW);
+    EXPECT_EQ(net.net_height(), 15);
+    EXPECT_EQ(net.net_width(), 23);
+    EXPECT_EQ(net.out_height(), 16);
+    EXPECT_EQ(net.out_width(), 24);
+    std::vector<uint64_t> fed(m.layers.size(), 0);  // input spikes per layer, both sources
+    for (int t = 0; t < input.T; ++t) {
+      const auto x = spikes_at(input, t);
+      net.step(x);
+      for (size_t k = 0; k < m.layers.size(); ++k) {
+        const auto& o = outs[k].spikes;
+        std::vector<uint32_t> want;
+        for (int y = 0; y < o.H; ++y)
+          for (int xx = 0; xx < o.W; ++xx)
+            for (int c = 0; c < o.C; ++c)
+              if (o.at(t, c, y, xx) != 0) want.push_back(uint32_t((y * o.W + xx) * o.C + c));
+        auto got = net.layer_spikes(k);
+        std::sort(got.begin(), got.end());
+        ASSERT_EQ(got, want) << "step " << t << " layer " << k;
+        const int skip = m.layers[k].skip_from;
+        fed[k] += k == 0 ? x.size()
+                         : net.layer_spikes(k - 1).size() +
+                               (skip >= 0 ? net.layer_spikes(size_t(skip)).size() : 0);
+      }
+    }
+    const auto st = net.stats();
+    for (size_t k = 0; k < m.layers.size(); ++k) {
+      EXPECT_GT(outs[k].spikes.sum(), 100.0) << "layer " << k << " hardly fires";
+      EXPECT_EQ(st[k].in_spikes, fed[k]) << "layer " << k;
+    }
+    // Without the skip weights the decoder spikes differently: the skips carry spikes here.
+    ModelSpec cut = m;
+    for (size_t k : {size_t(4), size_t(5)}) {
+      LayerSpec& l = cut.layers[k];
+      const int cp = m.layers[k - 1].out_channels;  // convT weights [C_in, C_out, 3, 3]
+      std::fill(l.weight.begin() + std::ptrdiff_t(cp) * l.out_channels * 9, l.weight.end(), 0.f);
+    }
+    const auto outs_cut = dense_forward(cut, input);
+    EXPECT_NE(outs_cut[4].spikes.v, outs[4].spikes.v);
+    EXPECT_NE(outs_cut[5].spikes.v, outs[5].spikes.v);
+  }
+}
+
+// Blocks on one thread, and the pipeline on two and three threads (layer 5 reads the block
+// layer 0 made five rounds before), give the spikes of step() for a model with skips.
+TEST(StreamingNetwork, SkipModelBlocksAndThreadsGiveIdenticalResults) {
+  for (int threads : {1, 2, 3})
+    for (auto [disc, ref] : {std::pair{Discretisation::FIR, RefractoryShape::SpikeMS},
+                             {Discretisation::IIR, RefractoryShape::SpikeMS},
+                             {Discretisation::FIR, RefractoryShape::Slayer}}) {
+      SCOPED_TRACE(std::to_string(threads) + " threads, " +
+                   (disc == Discretisation::FIR ? "FIR" : "IIR") +
+                   (ref == RefractoryShape::Slayer ? ", SLAYER refractory" : ""));
+      ModelSpec m = random_skip_model(disc, 43, ref, 0.3f);
+      expect_blocks_identical(m, make_input(47, kSkipH, kSkipW, false, 44), threads);
+    }
+}
+
+// A model with skips through the segmenter: its output (24x16) is larger than the 21x13
+// sensor, and an event at sensor pixel (x, y) is labelled from output pixel (y, x) of that
+// grid (top-left aligned): each label equals the rule applied to the network's own output,
+// step by step, and with blocks on the threads' pipeline.
+TEST(Segmenter, SkipModelLabelsReadTheTopLeftOutputPixels) {
+  const ModelSpec m = random_skip_model(Discretisation::IIR, 47, RefractoryShape::SpikeMS, 0.35f);
+  const DenseTensor in = make_input(40, kSkipH, kSkipW, false, 48, 0.03);
+  EventStream ev;
+  for (int t = 0; t < in.T; ++t)
+    for (uint32_t n : spikes_at(in, t))
+      ev.push_back(1000 * t + (t == 0 ? 0 : int64_t(n % 997)), uint16_t((n / 2) % kSkipW),
+                   uint16_t((n / 2) / kSkipW), uint8_t(n % 2));
+  ev.sort_by_time();
+  ASSERT_EQ(ev.t.front(), 0);  // steps start at t = 0: event step = t / 1000
+  const int tol = 3, window = int(m.layers.size()) + tol;
+  // The rule on the network's output: foreground when output pixel (y, x) of the 24-wide grid
+  // spikes in steps s .. s + window.
+  StreamingNetwork net(m, kSkipH, kSkipW);
+  ASSERT_EQ(net.out_width(), 24);
+  const int ow = net.out_width(), oc = net.out_channels();
+  std::vector<std::vector<uint8_t>> fired;  // [step][output pixel]
+  for (int t = 0; t < in.T + window + 1; ++t) {
+    fired.emplace_back(size_t(net.out_height()) * ow, 0);
+    for (uint32_t n : net.step(t < in.T ? spikes_at(in, t) : std::vector<uint32_t>{}))
+      fired.back()[n / uint32_t(oc)] = 1;
+  }
+  std::vector<uint16_t> want(ev.size());
+  for (size_t i = 0; i < ev.size(); ++i) {
+    const int s = int(ev.t[i] / 1000);
+    for (int t = s; t <= s + window; ++t)
+      want[i] |= fired[size_t(t)][size_t(ev.y[i]) * ow + ev.x[i]];
+  }
+  const size_t fg = size_t(std::count(want.begin(), want.end(), 1));
+  EXPECT_GT(fg, 10u);
+  EXPECT_LT(fg, ev.size() - 10);
+  for (auto [block, threads] : {std::pair{1, 1}, {16, 1}, {4, 2}, {16, 3}}) {
+    SCOPED_TRACE(std::to_string(block) + " steps per block, " + std::to_string(threads) +
+                 " threads");
+    SegmenterOptions o;
+    o.block_steps = block;
+    o.threads = threads;
+    o.label_tolerance_steps = tol;
+    Segmenter seg(m, SensorSize{kSkipW, kSkipH}, o);
+    for (size_t b = 0; b < ev.size(); b += 333)
+      seg.push(ev.slice_index(b, std::min(ev.size(), b + 333)));
+    seg.finish();
+    const EventStream& got = seg.labelled();
+    ASSERT_EQ(got.size(), ev.size());
+    EXPECT_EQ(got.t, ev.t);
+    EXPECT_EQ(got.x, ev.x);
+    EXPECT_EQ(got.label, want);
+  }
+}
+
+// Threads within a step (per-step parallel layers) for a model with skips.
+TEST(StreamingNetwork, SkipModelThreadsGiveIdenticalSteps) {
+  for (int threads : {2, 3, 6}) {
+    SCOPED_TRACE(std::to_string(threads) + " threads");
+    expect_threads_identical(
+        random_skip_model(Discretisation::IIR, 45, RefractoryShape::SpikeMS, 0.3f),
+        make_input(30, kSkipH, kSkipW, false, 46), threads);
+  }
 }
 
 // The segmenter's blocks change when outputs come, not what they are: the same labels (in
