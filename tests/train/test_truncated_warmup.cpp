@@ -163,8 +163,9 @@ TEST(Skips, InputIsZeroPaddedToTheFittedSize) {
 
 TEST(Skips, ConfigKeyBuildsTheUNetAndNeedsPadding) {
   const std::string base = test::source_dir() + "/configs/train/deep.toml";
-  EXPECT_FALSE(load_train_config(base, {}).skips);
-  EXPECT_TRUE(load_train_config(base, {"model.skips=true"}).skips);
+  EXPECT_TRUE(load_train_config(base, {}).skips);  // deep.toml needs them to learn
+  EXPECT_FALSE(load_train_config(base, {"model.skips=false"}).skips);
+  EXPECT_FALSE(load_train_config(test::source_dir() + "/configs/train/default.toml", {}).skips);
   EXPECT_THROW(load_train_config(base, {"model.skips=true", "model.padded=false"}), std::exception);
   const ModelSpec s = spikems_architecture(true, Discretisation::IIR, {8, 16, 32}, {}, true);
   // Encoder 0..2; decoder 3 (bottleneck, no skip), 4 <- layer 1, 5 <- layer 0.
