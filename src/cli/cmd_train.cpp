@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "cli/command.h"
+#include "core/util/duration.h"
 #include "core/util/error.h"
 #include "train/host_memory.h"
 #include "train/trainer/trainer.h"
@@ -13,7 +14,7 @@ struct Args {
   std::string config, out, resume;
   std::vector<std::string> set;
   int steps = 0, threads = -1;
-  std::string device, kernels;
+  std::string device, kernels, time_limit;
   bool quiet = false;
   std::string command;
   spikems::train::DistFlags dist;
@@ -31,6 +32,13 @@ void run(const Args& a) {
   ro.dist = resolve_dist_options(a.dist);  // flags, then MASTER_ADDR, MASTER_PORT, RANK, WORLD_SIZE
   ro.progress = !a.quiet;
   ro.command = a.command;
+  if (!a.time_limit.empty()) {
+    const int64_t us = spikems::parse_duration_us(a.time_limit);
+    if (us <= 0)
+      spikems::fail("--time-limit", a.time_limit,
+                    "must be a positive duration, e.g. 9min or 150min");
+    ro.time_limit_s = double(us) / 1e6;
+  }
   TrainConfig cfg;
   if (!a.resume.empty()) {
     if (!a.config.empty())
@@ -55,6 +63,11 @@ void run(const Args& a) {
       "trained %lld steps in %.0f s; best validation IoU %.1f %%; model: %s/model.safetensors"
       " (best: %s/best.safetensors)\n",
       (long long)r.steps, r.wall_seconds, r.best_val_iou, ro.out_dir.c_str(), ro.out_dir.c_str());
+  if (r.time_limit_reached)
+    std::printf(
+        "stopped by --time-limit at step %lld of %lld; continue with: spikems train "
+        "--resume %s\n",
+        (long long)r.steps, (long long)cfg.steps, ro.out_dir.c_str());
 }
 
 void add(CLI::App& app) {
@@ -79,6 +92,9 @@ void add(CLI::App& app) {
                   "dense (LibTorch convolutions)")
       ->check(CLI::IsMember({"auto", "sparse", "dense"}));
   cmd->add_flag("--quiet,-q", a->quiet, "no progress bar");
+  cmd->add_option("--time-limit", a->time_limit,
+                  "stop after the step that ends past this wall time (e.g. 9min, 150min, 3600s; "
+                  "data loading counts), with a checkpoint; continue with --resume");
   // Data-parallel training, launched like torchrun (docs/training.md).
   cmd->add_option("--world-size", a->dist.world_size,
                   "data-parallel: number of processes (WORLD_SIZE; 1 = single process)")
@@ -99,6 +115,8 @@ void add(CLI::App& app) {
       "  spikems simulate --preset mod --sequences 20 --duration 2s --out data/mod-train\n"
       "  spikems train --config configs/train/default.toml --out runs/default\n"
       "  spikems train --resume runs/default                  (after a stop or a kill)\n"
+      "  spikems train --resume runs/default --time-limit 9min   (at most ~9 minutes, then a "
+      "checkpoint)\n"
       "  spikems train --config c.toml --out runs/dp --world-size 2 --rank 0 --master-addr "
       "127.0.0.1 &\n"
       "  spikems train --config c.toml --out runs/dp --world-size 2 --rank 1 --master-addr "

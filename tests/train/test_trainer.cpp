@@ -243,6 +243,45 @@ TEST(Trainer, ResumeAfterKillContinuesWithTheSameLosses) {
   for (size_t k = 0; k < ma.layers.size(); ++k) EXPECT_EQ(ma.layers[k].weight, mb.layers[k].weight);
 }
 
+// A time limit stops the run after the step that passes it, with a checkpoint and a
+// "time_limit" run line; --resume then finishes the run with every step logged once.
+TEST(Trainer, TimeLimitStopsWithACheckpointAndResumeFinishes) {
+  const std::string dir = scratch_dir() + "/run";
+  auto ov = tiny_overrides(12);
+  ov.push_back("run.val_every=100");
+  TrainRunOptions ro;
+  ro.out_dir = dir;
+  ro.progress = false;
+  ro.time_limit_s = 1e-6;  // passed by the end of the first step: exactly one step runs
+  TrainResult r = run_training(load_train_config(config_path(), ov), ro);
+  EXPECT_TRUE(r.time_limit_reached);
+  EXPECT_EQ(r.steps, 1);
+  EXPECT_TRUE(fs::exists(dir + "/checkpoint.pt"));
+  auto runs = read_log(dir, "run");
+  ASSERT_FALSE(runs.empty());
+  EXPECT_EQ(runs.back()["event"], "time_limit");
+  EXPECT_EQ(runs.back()["step"], 1);
+
+  ro.resume = true;
+  ro.time_limit_s = 0;
+  r = run_training(load_run_config(dir, {}), ro);
+  EXPECT_FALSE(r.time_limit_reached);
+  EXPECT_EQ(r.steps, 12);
+  auto train = read_log(dir, "train");
+  ASSERT_EQ(train.size(), 12u);
+  for (size_t i = 0; i < train.size(); ++i) EXPECT_EQ(train[i]["step"], int(i + 1));
+  EXPECT_EQ(read_log(dir, "run").back()["event"], "done");
+
+  // The command line refuses a duration that is not one, naming the flag.
+  std::string out;
+  EXPECT_NE(run_command(spikems_binary() + " train -q --resume " + dir + " --time-limit 0s", &out),
+            0);
+  EXPECT_NE(out.find("--time-limit"), std::string::npos) << out;
+  EXPECT_NE(
+      run_command(spikems_binary() + " train -q --resume " + dir + " --time-limit soon", &out), 0);
+  EXPECT_NE(out.find("soon"), std::string::npos) << out;
+}
+
 TEST(Trainer, BadConfigsNameTheKey) {
   auto msg = [](const std::vector<std::string>& ov) {
     try {

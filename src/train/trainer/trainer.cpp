@@ -507,8 +507,19 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   const int64_t hang_at = test_switch("SPIKEMS_TEST_HANG_AT_STEP");
   const size_t n_rates = net.size();
   bool stop = false;  // Ctrl-C on any rank: every rank stops after the same step
+  // The time limit counts from the start (data loading included) and lets at least one step
+  // run, so every call makes progress; in a data-parallel run it travels with the Ctrl-C flag.
+  int64_t steps_here = 0;
+  bool time_up = false;
+  auto out_of_time = [&] {
+    if (ro.time_limit_s > 0 && steps_here > 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() >=
+            ro.time_limit_s)
+      time_up = true;
+    return time_up;
+  };
   while (st.step < c.steps && !stop) {
-    if (world == 1 && interrupted()) break;
+    if (world == 1 && (interrupted() || out_of_time())) break;
     dist.set_step(st.step + 1);
     Batch b = loader.next();
     BatchTensors bt = to_tensors(b.samples, ts, device);
@@ -523,7 +534,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
                                 o.spike.item<double>(), o.iou.item<double>(),
                                 o.activity.item<double>()};
     mine.insert(mine.end(), o.rates.begin(), o.rates.end());
-    mine.push_back(world > 1 && interrupted() ? 1.0 : 0.0);
+    mine.push_back(world > 1 && (interrupted() || out_of_time()) ? 1.0 : 0.0);
     for (const auto& m :
          window_counts(o.out_window, o.fg_window, c.gate_events ? o.in_window : torch::Tensor()))
       mine.insert(mine.end(), {double(m.intersection), double(m.predicted), double(m.truth)});
@@ -569,6 +580,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     if (c.clip > 0) torch::nn::utils::clip_grad_norm_(net.module().parameters(), c.clip);
     opt.step();
     ++st.step;
+    ++steps_here;
     if (st.step == die_at) std::_Exit(3);
     if (st.step == hang_at) {  // silent for 2 x timeout + 2 s, then gone (no stray process)
       std::this_thread::sleep_for(std::chrono::duration<double>(2 * dopt.timeout_s + 2));
@@ -658,11 +670,15 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     if (st.step % c.checkpoint_every != 0 && st.step != c.steps) checkpoint();  // interrupted
     curves.write((dir / "curves.svg").string());
   }
+  const bool finished = st.step >= c.steps;
   log_line({{"kind", "run"},
             {"step", st.step},
-            {"event", st.step >= c.steps ? "done" : "interrupted"},
+            {"event", finished  ? "done"
+                      : time_up ? "time_limit"
+                                : "interrupted"},
             {"wall_s", st.wall_seconds}});
   res.steps = st.step;
+  res.time_limit_reached = !finished && time_up;
   res.best_val_iou = st.best_val_iou;
   res.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();

@@ -21,6 +21,10 @@ struct TrainRunOptions {
   bool resume = false;   // continue the run in out_dir from its checkpoint
   bool progress = true;  // progress bar on stderr
   std::string command;   // the command line, for the model's provenance
+  // Wall-clock budget in seconds (0: none): the run stops after the step that ends past it,
+  // with a checkpoint, as after Ctrl-C, so a job with a fixed allotment (a session, a batch
+  // queue's slot, a lent GPU's per-command limit) ends cleanly and resumes later.
+  double time_limit_s = 0;
   // Data-parallel training (distributed.h): world size 1 is the single-process run. Every rank
   // runs run_training with the same configuration; rank 0 alone writes the run folder.
   DistOptions dist;
@@ -28,12 +32,13 @@ struct TrainRunOptions {
 
 struct TrainResult {
   int64_t steps = 0;
+  bool time_limit_reached = false;
   double best_val_iou = -1, wall_seconds = 0;
 };
 
 // Throws Error on bad data, a non-finite loss (naming the step; the last checkpoint stays) or
 // an unwritable folder, and in a data-parallel run when a rank dies or hangs (naming it).
-// Ctrl-C (on any rank) stops after the current step with a checkpoint.
+// Ctrl-C (on any rank) or the time limit stops after the current step with a checkpoint.
 TrainResult run_training(const TrainConfig& cfg, const TrainRunOptions& opt);
 
 // The run folder's saved configuration with `overrides` applied (for --resume).
