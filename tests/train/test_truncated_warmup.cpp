@@ -9,6 +9,7 @@
 
 #include "common/test_paths.h"
 #include "core/model/model_file.h"
+#include "core/util/error.h"
 #include "train/loss/spikems_loss.h"
 #include "train/network/spikems_network.h"
 #include "train/neuron/psp.h"
@@ -175,6 +176,45 @@ TEST(Skips, ConfigKeyBuildsTheUNetAndNeedsPadding) {
     EXPECT_EQ(s.layers[k].skip_from, want_skip[k]) << k;
     EXPECT_EQ(s.layers[k].in_channels, want_in[k]) << k;
   }
+}
+
+// model.skip_levels keeps only the named encoder levels' skips (1 = the finest): [2] on three
+// levels leaves decoder layer 4 <- layer 1 and drops the finest (layer 5 <- layer 0).
+TEST(Skips, SkipLevelsChooseWhichLevelsFeedTheDecoder) {
+  const std::string base = test::source_dir() + "/configs/train/deep.toml";
+  EXPECT_TRUE(load_train_config(base, {}).skip_levels.empty());
+  const TrainConfig c = load_train_config(base, {"model.skip_levels=[3, 5]"});
+  EXPECT_EQ(c.skip_levels, (std::vector<int>{3, 5}));
+  auto msg = [&](const std::vector<std::string>& ov) {
+    try {
+      load_train_config(base, ov);
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(msg({"model.skip_levels=[6]"}).find("1..5"), std::string::npos);  // the bottleneck
+  EXPECT_NE(msg({"model.skip_levels=[0]"}).find("model.skip_levels"), std::string::npos);
+  EXPECT_NE(msg({"model.skip_levels=[2, 2]"}).find("twice"), std::string::npos);
+  EXPECT_NE(msg({"model.skip_levels=[2]", "model.skips=false"}).find("model.skips = true"),
+            std::string::npos);
+  const ModelSpec s = spikems_architecture(true, Discretisation::IIR, {8, 16, 32}, {}, true, {2});
+  const int want_skip[] = {-1, -1, -1, -1, 1, -1};
+  const int want_in[] = {2, 8, 16, 32, 16 + 16, 8};
+  for (size_t k = 0; k < 6; ++k) {
+    EXPECT_EQ(s.layers[k].skip_from, want_skip[k]) << k;
+    EXPECT_EQ(s.layers[k].in_channels, want_in[k]) << k;
+  }
+  EXPECT_TRUE(s.has_skips());
+  EXPECT_THROW(spikems_architecture(true, Discretisation::IIR, {8, 16, 32}, {}, true, {3}), Error);
+  EXPECT_THROW(spikems_architecture(true, Discretisation::IIR, {8, 16, 32}, {}, false, {1}), Error);
+  // The LibTorch network runs it on an input it must pad (11x13), to the model's output size.
+  SpikeMSNetwork net(s);
+  const torch::Tensor x = (torch::rand({6, 1, 2, 11, 13}) < 0.2).to(torch::kFloat);
+  const torch::Tensor y = net->forward(x);
+  const auto [fh, fw] = s.fitted_input_size(11, 13);
+  const auto [oh, ow] = s.output_size(fh, fw);
+  EXPECT_EQ(y.sizes(), (std::vector<int64_t>{6, 1, 2, oh, ow}));
 }
 
 TEST(TruncatedWarmup, ConfigKeyParsesAndRefusesDelays) {

@@ -217,8 +217,21 @@ void check_widths(const std::vector<int>& widths, const std::string& where) {
 }
 
 ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<int>& widths,
-                               const std::vector<double>& tau_s, bool skips) {
+                               const std::vector<double>& tau_s, bool skips,
+                               const std::vector<int>& skip_levels) {
   check_widths(widths, "architecture widths");
+  if (!skip_levels.empty() && !skips)
+    fail("architecture skip_levels", "", "skip levels need skip connections (skips = true)");
+  for (size_t a = 0; a < skip_levels.size(); ++a) {
+    const int v = skip_levels[a];
+    if (v < 1 || v >= int(widths.size()))
+      fail("architecture skip_levels", "",
+           "each must lie in 1.." + std::to_string(int(widths.size()) - 1) +
+               " (1 = the finest level; the bottleneck has none), got " + std::to_string(v));
+    for (size_t b = 0; b < a; ++b)
+      if (skip_levels[b] == v)
+        fail("architecture skip_levels", "", "level " + std::to_string(v) + " is given twice");
+  }
   if (skips && !padded)
     fail("architecture", "",
          "skip connections need the padded geometry (the unpadded one loses a pixel per level, "
@@ -255,7 +268,9 @@ ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<
   // Decoder level i works at encoder level i's output resolution: with skips, level i's
   // spikes join it (all but the bottleneck's own level).
   for (int i = n - 1; i >= 0; --i) {
-    const bool skip = skips && i < n - 1;
+    const bool skip = skips && i < n - 1 &&
+                      (skip_levels.empty() || std::find(skip_levels.begin(), skip_levels.end(),
+                                                        i + 1) != skip_levels.end());
     rows.push_back({LayerKind::ConvTranspose, widths[size_t(i)] * (skip ? 2 : 1),
                     i == 0 ? 2 : widths[size_t(i - 1)], level(dec, i), skip ? i : -1});
   }

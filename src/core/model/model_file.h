@@ -115,9 +115,12 @@ bool has_sampled_kernels(const LayerSpec& l, double time_step_ms);
 // skips: U-Net skip connections, encoder level i's spikes into the decoder layer that works at
 // its resolution (every decoder layer but the first); needs padded. They give the gradient of
 // a deep stack a short path to the early layers (docs/training.md, "Skip connections").
+// skip_levels (with skips): only these encoder levels, 1-based (1 = the finest) and below the
+// bottleneck's level, feed the decoder; empty = every level. Throws Error naming a bad level.
 ModelSpec spikems_architecture(bool padded, Discretisation d = Discretisation::FIR,
                                const std::vector<int>& widths = {16, 32, 64},
-                               const std::vector<double>& tau_s = {}, bool skips = false);
+                               const std::vector<double>& tau_s = {}, bool skips = false,
+                               const std::vector<int>& skip_levels = {});
 // Throws Error unless widths holds 1-6 levels of 1-1024 channels each.
 void check_widths(const std::vector<int>& widths, const std::string& where);
 // The ANN-2D baseline (EVDodgeNet-like): the same 3x3 stride-2 layers and channel widths,

@@ -1,6 +1,7 @@
 #include "train/trainer/train_config.h"
 
 #include <toml++/toml.h>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -207,6 +208,19 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("model", "skips", c.skips);
   if (c.skips && (!c.padded || c.type != "snn"))
     b.bad("model", "skips", "skip connections need a spiking model with padded = true");
+  std::vector<double> levels(c.skip_levels.begin(), c.skip_levels.end());
+  b.bind_list("model", "skip_levels", levels);
+  c.skip_levels.clear();
+  for (double v : levels) {
+    if (v != std::floor(v) || v < 1 || v >= double(c.channels.size()))
+      b.bad("model", "skip_levels",
+            "each must be a whole level in 1.." + std::to_string(int(c.channels.size()) - 1) +
+                " (1 = the finest; the bottleneck has none)");
+    if (std::find(c.skip_levels.begin(), c.skip_levels.end(), int(v)) != c.skip_levels.end())
+      b.bad("model", "skip_levels", "a level is given twice");
+    c.skip_levels.push_back(int(v));
+  }
+  if (!c.skip_levels.empty() && !c.skips) b.bad("model", "skip_levels", "needs model.skips = true");
   b.bind("model", "tau_rho", c.tau_rho);
   if (c.tau_rho != 0 && !(c.tau_rho >= 0.01 && c.tau_rho <= 100))
     b.bad("model", "tau_rho", "must lie in 0.01..100 (or 0: the model's own)");

@@ -30,6 +30,9 @@ struct TrainConfig {
   // U-Net skip connections (encoder level i into the decoder layer at its resolution): the
   // gradient's short path through a deep stack (docs/training.md, "Skip connections").
   bool skips = false;
+  // With skips: only these encoder levels (1-based, 1 = the finest) feed the decoder; empty =
+  // every level. Leaving the finest out removes the output's two-layer path from the input.
+  std::vector<int> skip_levels;
   // The surrogate's width in units of theta for every layer (0: keep the model's, the
   // authors' 0.3). Training only: the forward pass does not depend on it.
   double tau_rho = 0;

@@ -43,7 +43,7 @@ ModelSpec initial_spec(const TrainConfig& c) {
   } else {
     spec = spikems_architecture(c.padded,
                                 c.neurons == "iir" ? Discretisation::IIR : Discretisation::FIR,
-                                c.channels, c.tau_s, c.skips);
+                                c.channels, c.tau_s, c.skips, c.skip_levels);
     for (auto& l : spec.layers)
       l.neuron.surrogate = c.surrogate == "slayer" ? SurrogateForm::Slayer : SurrogateForm::SpikeMS;
   }

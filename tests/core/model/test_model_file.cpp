@@ -251,6 +251,18 @@ TEST(ModelFile, SkipFromRoundTripsAndIsValidated) {
   EXPECT_TRUE(s.has_skips());
   EXPECT_FALSE(spikems_architecture(true, Discretisation::FIR, {4, 6, 8}).has_skips());
   EXPECT_THROW(spikems_architecture(false, Discretisation::FIR, {4, 6, 8}, {}, true), Error);
+  // skip_levels: level 1 alone (the finest) feeds layer 5; level 2's skip is left out.
+  const ModelSpec f = spikems_architecture(true, Discretisation::FIR, {4, 6, 8}, {}, true, {1});
+  EXPECT_EQ(f.layers[4].skip_from, -1);
+  EXPECT_EQ(f.layers[4].in_channels, 6);
+  EXPECT_EQ(f.layers[5].skip_from, 0);
+  EXPECT_EQ(f.layers[5].in_channels, 4 + 4);
+  EXPECT_NO_THROW(f.validate("f"));
+  expect_error(
+      [] {
+        spikems_architecture(true, Discretisation::FIR, {4, 6, 8}, {}, true, {3});
+      },
+      {"skip_levels", "1..2", "got 3"});
   for (auto& l : s.layers)
     for (size_t i = 0; i < l.weight.size(); ++i) l.weight[i] = float(std::cos(double(i) * 0.1));
   const auto j = spec_to_json(s);

@@ -462,6 +462,13 @@ TEST(StreamingNetwork, BlocksGiveIdenticalResults) {
     }
 }
 
+// The runtime's spikes of layer k at its last step, ascending (ring layers emit them unsorted).
+std::vector<uint32_t> sorted_layer_spikes(const StreamingNetwork& net, size_t k) {
+  auto v = net.layer_spikes(k);
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
 // The 3-level U-Net of spikems_architecture(skips = true), narrow: layer 4 (convT 12 -> 4)
 // takes layer 3's 6 channels and layer 1's 6, layer 5 (convT 8 -> 2) layer 4's 4 and layer
 // 0's 4. Random weights leaning positive so that every layer fires.
@@ -520,15 +527,8 @@ TEST(StreamingNetwork, SkipModelMatchesDense) {
       const auto x = spikes_at(input, t);
       net.step(x);
       for (size_t k = 0; k < m.layers.size(); ++k) {
-        const auto& o = outs[k].spikes;
-        std::vector<uint32_t> want;
-        for (int y = 0; y < o.H; ++y)
-          for (int xx = 0; xx < o.W; ++xx)
-            for (int c = 0; c < o.C; ++c)
-              if (o.at(t, c, y, xx) != 0) want.push_back(uint32_t((y * o.W + xx) * o.C + c));
-        auto got = net.layer_spikes(k);
-        std::sort(got.begin(), got.end());
-        ASSERT_EQ(got, want) << "step " << t << " layer " << k;
+        ASSERT_EQ(sorted_layer_spikes(net, k), spikes_at(outs[k].spikes, t))
+            << "step " << t << " layer " << k;
         const int skip = m.layers[k].skip_from;
         fed[k] += k == 0 ? x.size()
                          : net.layer_spikes(k - 1).size() +
@@ -551,6 +551,32 @@ TEST(StreamingNetwork, SkipModelMatchesDense) {
     EXPECT_NE(outs_cut[4].spikes.v, outs[4].spikes.v);
     EXPECT_NE(outs_cut[5].spikes.v, outs[5].spikes.v);
   }
+}
+
+// Skips at some levels only (model.skip_levels = [2]: decoder layer 4 <- layer 1, the finest
+// level's skip left out): every layer's spikes at every step equal the dense forward's, step by
+// step and in the threaded pipeline.
+TEST(StreamingNetwork, PartialSkipsMatchDense) {
+  const ModelSpec m =
+      random_weights(spikems_architecture(true, Discretisation::IIR, {4, 6, 8}, {}, true, {2}),
+                     RefractoryShape::SpikeMS, 49, 0.3f);
+  ASSERT_EQ(m.layers[4].skip_from, 1);
+  ASSERT_EQ(m.layers[5].skip_from, -1);
+  const DenseTensor input = make_input(40, kSkipH, kSkipW, false, 50);
+  const auto outs = dense_forward(m, input);
+  StreamingNetwork net(m, kSkipH, kSkipW);
+  for (int t = 0; t < input.T; ++t) {
+    net.step(spikes_at(input, t));
+    for (size_t k = 0; k < m.layers.size(); ++k)
+      ASSERT_EQ(sorted_layer_spikes(net, k), spikes_at(outs[k].spikes, t))
+          << "step " << t << " layer " << k;
+  }
+  for (int threads : {1, 2, 3}) {  // blocks and the pipeline give step()'s spikes
+    SCOPED_TRACE(std::to_string(threads) + " threads");
+    expect_blocks_identical(m, make_input(47, kSkipH, kSkipW, false, 51), threads);  // 47 steps
+  }
+  for (size_t k = 0; k < m.layers.size(); ++k)
+    EXPECT_GT(outs[k].spikes.sum(), 50.0) << "layer " << k << " hardly fires";
 }
 
 // Blocks on one thread, and the pipeline on two and three threads (layer 5 reads the block
