@@ -1,5 +1,5 @@
 // Helpers shared by the train tests: npz arrays <-> tensors in the authors' (N, C, H, W, T)
-// layout, and running import-slayer on the shared reference weights.
+// layout, running import-slayer on the shared reference weights, random firing networks.
 #pragma once
 
 #include <torch/torch.h>
@@ -12,6 +12,21 @@
 #include "core/model/model_file.h"
 
 namespace spikems::test {
+
+// Random weights that make every layer of a 32x24 network fire.
+inline ModelSpec random_model(Discretisation d, uint64_t seed, bool skips = false) {
+  ModelSpec s = spikems_architecture(true, d, {16, 32, 64}, {}, skips);
+  torch::manual_seed(seed);
+  for (auto& l : s.layers) {
+    torch::Tensor w = torch::randn({l.weight_count()}, torch::kDouble) * 0.5;
+    for (size_t i = 0; i < l.weight.size(); ++i) l.weight[i] = float(w[int64_t(i)].item<double>());
+  }
+  return s;
+}
+
+inline torch::Tensor random_spikes(std::vector<int64_t> shape, double density) {
+  return (torch::rand(shape, torch::kDouble) < density).to(torch::kDouble);
+}
 
 // Largest |a - b| relative to max|b| (the absolute difference when b vanishes).
 inline double rel_err(const torch::Tensor& a, const torch::Tensor& b) {

@@ -1,0 +1,108 @@
+#!/usr/bin/env bash
+# One command on a lent GPU (the workplace's device tool, 10-minute limit): build spikems against
+# the machine's CUDA LibTorch, simulate the data, train three deep-SNN probes side by side on the
+# one GPU, each stopped by --time-limit, and return the runs under $OUT. Run from the checkout:
+#   runs/gpu-deep/device.sh     (with .gpu/deps.tar.xz = scripts/pack_build_deps, xz-packed, and
+#                               .gpu/spikems-nb.xz = a CPU-only spikems built here, for simulating
+#                               while the CUDA build runs)
+# The probes (docs/results.md, "Tenth session"): the deep recipe (configs/train/deep.toml, skips at
+# every level), skips at levels 3-5 only, and tau_s = 2 ms everywhere; same data, seed, batch 8.
+set -u
+T0=$SECONDS
+OUT=${OUT:-/tmp/gpu-out}
+mkdir -p "$OUT"
+DEADLINE=${DEADLINE:-535}   # seconds after start by which training has stopped
+ROOMS=${ROOMS:-32}          # rooms per training chunk (two chunks, seeds 41 and 43)
+log() { echo "[$((SECONDS - T0)) s] $*" | tee -a "$OUT/main.log"; }
+nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader | tee -a "$OUT/main.log"
+nproc | tee -a "$OUT/main.log"
+
+python3 - <<'PY'
+import lzma, shutil, tarfile, os
+tarfile.open('.gpu/deps.tar.xz').extractall('/tmp/dp')
+with lzma.open('.gpu/spikems-nb.xz') as f, open('/tmp/spikems-nb', 'wb') as g:
+    shutil.copyfileobj(f, g)
+os.chmod('/tmp/spikems-nb', 0o755)
+PY
+# shellcheck disable=SC1091
+source /tmp/dp/deps/env.sh
+log "deps unpacked"
+
+TORCH=$(python3 -c 'import torch;print(torch.utils.cmake_prefix_path)' 2>/dev/null)
+(
+  [ -n "${SKIP_BUILD:-}" ] && { mkdir -p build-cuda; cp "$SKIP_BUILD" build-cuda/spikems; echo 0 >/tmp/build.rc; exit; }
+  BUILD_DIR=build-cuda TARGET=spikems JOBS=16 scripts/build \
+    -DCMAKE_PREFIX_PATH="$SPIKEMS_DEPS_PREFIX;$TORCH" -DCMAKE_CUDA_ARCHITECTURES=90 -DSPIKEMS_CUDA=ON \
+    >"$OUT/build.log" 2>&1
+  echo $? >/tmp/build.rc
+) &
+BPID=$!
+
+SIM=/tmp/spikems-nb
+if ! $SIM --version >>"$OUT/main.log" 2>&1; then
+  log "the CPU-only spikems does not run here: simulating after the build"
+  wait $BPID
+  SIM=build-cuda/spikems
+fi
+mkdir -p data
+sim() {  # name n duration seed
+  nice -n 5 $SIM simulate --preset mod --sequences "$2" --duration "$3" --seed "$4" \
+    --mask-period 10ms --no-progress --out "data/$1.partial" >>"$OUT/sim.log" 2>&1 &&
+    mv "data/$1.partial" "data/$1" && log "made data/$1"
+}
+(sim mod2-val 8 1s 3001 && sim gpu-train-a "$ROOMS" 1.5s 41 && sim gpu-train-b "$ROOMS" 1.5s 43) &
+SPID=$!
+
+wait $BPID
+log "build rc $(cat /tmp/build.rc)"
+if [ "$(cat /tmp/build.rc)" != 0 ]; then
+  tail -30 "$OUT/build.log"
+  log "fused CUDA build failed: building with SPIKEMS_CUDA=OFF (LibTorch ops on the GPU)"
+  BUILD_DIR=build-ops TARGET=spikems JOBS=16 scripts/build \
+    -DCMAKE_PREFIX_PATH="$SPIKEMS_DEPS_PREFIX;$TORCH" -DSPIKEMS_CUDA=OFF >>"$OUT/build.log" 2>&1 ||
+    { log "build failed"; tail -40 "$OUT/build.log"; exit 1; }
+  B=build-ops/spikems
+else
+  B=build-cuda/spikems
+fi
+grep -i "fused CUDA" "$OUT/build.log" | tee -a "$OUT/main.log"
+
+# Train as soon as validation and the first chunk exist; take the second if it is done by 290 s.
+while [ ! -d data/gpu-train-a ] && kill -0 $SPID 2>/dev/null; do sleep 2; done
+[ -d data/gpu-train-a ] || { log "no training data"; tail -20 "$OUT/sim.log"; exit 1; }
+while [ ! -d data/gpu-train-b ] && [ $((SECONDS - T0)) -lt 290 ] && kill -0 $SPID 2>/dev/null; do sleep 2; done
+if [ -d data/gpu-train-b ]; then
+  TRAIN='data.train=[{path="data/gpu-train-a",split="all"},{path="data/gpu-train-b",split="all"}]'
+else
+  kill $SPID 2>/dev/null; pkill -f "simulate --preset mod" 2>/dev/null
+  TRAIN='data.train=[{path="data/gpu-train-a",split="all"}]'
+fi
+log "training on: $TRAIN"
+
+nvidia-smi --query-gpu=timestamp,memory.used,utilization.gpu --format=csv -l 15 >"$OUT/smi.csv" 2>&1 &
+LIM=$((DEADLINE - (SECONDS - T0) - 25))
+log "time limit ${LIM} s per run"
+C=(--device "${DEVICE:-cuda}" --time-limit "${LIM}s" -q --steps 3000 --set optim.batch=${BATCH:-8} --set run.loader_threads=4
+   --set run.val_every=250 --set "$TRAIN")
+probe() {  # name extra-args...
+  local name=$1; shift
+  mkdir -p "runs/$name"
+  $B train ${EXTRA:-} --config configs/train/deep.toml --out "runs/$name" "${C[@]}" "$@" >"runs/$name/stdout.txt" 2>&1
+  log "$name: rc $?, $(tail -c 300 "runs/$name/log.jsonl" | tail -1)"
+}
+probe gpu-deep-skips &
+P1=$!
+probe gpu-deep-skiplv --set 'model.skip_levels=[3,4,5]' &
+P2=$!
+probe gpu-deep-tau2 --set 'model.tau_s=[2,2,2,2,2,2]' &
+P3=$!
+wait $P1 $P2 $P3
+pkill -f "nvidia-smi" 2>/dev/null
+log "training done"
+python3 - "$OUT" <<'PY'
+import sys, tarfile
+for n in ('gpu-deep-skips', 'gpu-deep-skiplv', 'gpu-deep-tau2'):
+    with tarfile.open(f'{sys.argv[1]}/{n}.tar.gz', 'w:gz') as t:
+        t.add(f'runs/{n}', arcname=n)
+PY
+log "packed"
