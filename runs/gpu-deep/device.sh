@@ -2,11 +2,16 @@
 # One command on a lent GPU (the workplace's device tool, 10-minute limit): build spikems against
 # the machine's CUDA LibTorch, simulate the data, train three deep-SNN probes side by side on the
 # one GPU, each stopped by --time-limit, and return the runs under $OUT. Run from the checkout:
-#   runs/gpu-deep/device.sh     (with .gpu/deps.tar.xz = scripts/pack_build_deps, xz-packed, and
-#                               .gpu/spikems-nb.xz = a CPU-only spikems built here, for simulating
-#                               while the CUDA build runs)
-# The probes (docs/results.md, "Tenth session"): the deep recipe (configs/train/deep.toml, skips at
-# every level), skips at levels 3-5 only, and tau_s = 2 ms everywhere; same data, seed, batch 8.
+#   runs/gpu-deep/device.sh [NAME='ARGS'...]   (.gpu/deps.tar.xz = scripts/pack_build_deps' folder
+#       packed with xz; .gpu/spikems-nb.xz = a CPU-only spikems built here, xz-packed, which
+#       simulates there while the CUDA build runs)
+# Each NAME='ARGS' is one run of configs/train/deep.toml with those extra `spikems train`
+# arguments (words split on spaces; at most 4 runs: $OUT returns 8 files). Without any, the
+# tenth session's three (docs/results.md, "Tenth session"): the recipe, skips at levels 3-5 only,
+# and tau_s = 2 ms everywhere; same data, seed, batch 8. Environment: DEADLINE (s, default 535),
+# ROOMS (per training chunk, default 32), BATCH (8), WAIT_B (s: train without the second chunk
+# if it is not made by then, default 290), CUDA_TESTS=1 (also build test_train and run the
+# NeuronCuda tests: the fused kernels and the data-driven initialisation on the GPU against the CPU).
 set -u
 T0=$SECONDS
 OUT=${OUT:-/tmp/gpu-out}
@@ -31,7 +36,7 @@ log "deps unpacked"
 TORCH=$(python3 -c 'import torch;print(torch.utils.cmake_prefix_path)' 2>/dev/null)
 (
   [ -n "${SKIP_BUILD:-}" ] && { mkdir -p build-cuda; cp "$SKIP_BUILD" build-cuda/spikems; echo 0 >/tmp/build.rc; exit; }
-  BUILD_DIR=build-cuda TARGET=spikems JOBS=16 scripts/build \
+  BUILD_DIR=build-cuda TARGET="spikems${CUDA_TESTS:+ test_train}" JOBS=16 scripts/build \
     -DCMAKE_PREFIX_PATH="$SPIKEMS_DEPS_PREFIX;$TORCH" -DCMAKE_CUDA_ARCHITECTURES=90 -DSPIKEMS_CUDA=ON \
     >"$OUT/build.log" 2>&1
   echo $? >/tmp/build.rc
@@ -66,11 +71,14 @@ else
   B=build-cuda/spikems
 fi
 grep -i "fused CUDA" "$OUT/build.log" | tee -a "$OUT/main.log"
+if [ -n "${CUDA_TESTS:-}" ] && [ -x build-cuda/test_train ]; then  # the kernels against the CPU
+  build-cuda/test_train --gtest_filter='NeuronCuda.*' 2>&1 | tail -15 | tee -a "$OUT/main.log"
+fi
 
-# Train as soon as validation and the first chunk exist; take the second if it is done by 290 s.
+# Train as soon as validation and the first chunk exist; take the second if it is made by WAIT_B.
 while [ ! -d data/gpu-train-a ] && kill -0 $SPID 2>/dev/null; do sleep 2; done
 [ -d data/gpu-train-a ] || { log "no training data"; tail -20 "$OUT/sim.log"; exit 1; }
-while [ ! -d data/gpu-train-b ] && [ $((SECONDS - T0)) -lt 290 ] && kill -0 $SPID 2>/dev/null; do sleep 2; done
+while [ ! -d data/gpu-train-b ] && [ $((SECONDS - T0)) -lt "${WAIT_B:-290}" ] && kill -0 $SPID 2>/dev/null; do sleep 2; done
 if [ -d data/gpu-train-b ]; then
   TRAIN='data.train=[{path="data/gpu-train-a",split="all"},{path="data/gpu-train-b",split="all"}]'
 else
@@ -81,6 +89,7 @@ log "training on: $TRAIN"
 
 nvidia-smi --query-gpu=timestamp,memory.used,utilization.gpu --format=csv -l 15 >"$OUT/smi.csv" 2>&1 &
 LIM=$((DEADLINE - (SECONDS - T0) - 25))
+[ "$LIM" -lt 30 ] && LIM=30   # late: still a short run rather than none
 log "time limit ${LIM} s per run"
 C=(--device "${DEVICE:-cuda}" --time-limit "${LIM}s" -q --steps 3000 --set optim.batch=${BATCH:-8} --set run.loader_threads=4
    --set run.val_every=250 --set "$TRAIN")
@@ -90,18 +99,25 @@ probe() {  # name extra-args...
   $B train ${EXTRA:-} --config configs/train/deep.toml --out "runs/$name" "${C[@]}" "$@" >"runs/$name/stdout.txt" 2>&1
   log "$name: rc $?, $(tail -c 300 "runs/$name/log.jsonl" | tail -1)"
 }
-probe gpu-deep-skips &
-P1=$!
-probe gpu-deep-skiplv --set 'model.skip_levels=[3,4,5]' &
-P2=$!
-probe gpu-deep-tau2 --set 'model.tau_s=[2,2,2,2,2,2]' &
-P3=$!
-wait $P1 $P2 $P3
+if [ $# -eq 0 ]; then
+  set -- gpu-deep-skips= "gpu-deep-skiplv=--set model.skip_levels=[3,4,5]" \
+    "gpu-deep-tau2=--set model.tau_s=[2,2,2,2,2,2]"
+fi
+NAMES=()
+PIDS=()
+for spec in "$@"; do
+  name=${spec%%=*}
+  # shellcheck disable=SC2086  # the run's arguments are words
+  probe "$name" ${spec#*=} &
+  NAMES+=("$name")
+  PIDS+=($!)
+done
+wait "${PIDS[@]}"
 pkill -f "nvidia-smi" 2>/dev/null
 log "training done"
-python3 - "$OUT" <<'PY'
+python3 - "$OUT" "${NAMES[@]}" <<'PY'
 import sys, tarfile
-for n in ('gpu-deep-skips', 'gpu-deep-skiplv', 'gpu-deep-tau2'):
+for n in sys.argv[2:]:
     with tarfile.open(f'{sys.argv[1]}/{n}.tar.gz', 'w:gz') as t:
         t.add(f'runs/{n}', arcname=n)
 PY

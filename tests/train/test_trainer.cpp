@@ -158,6 +158,14 @@ TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
   ASSERT_GT(w.windows, 0u);
   EXPECT_NEAR(val[1]["full_iou"].get<double>(), w.iou_mean, 1e-9);
   EXPECT_EQ(val[1]["full_windows"].get<size_t>(), w.windows);
+  // ... and its event counts: precision, the share of moving events, the share called moving.
+  ASSERT_TRUE(w.has_events);
+  const EventCounts& e = w.events;
+  EXPECT_NEAR(val[1]["full_event_precision"].get<double>(), 100 * e.precision(), 1e-9);
+  EXPECT_NEAR(val[1]["full_event_base_rate"].get<double>(),
+              100.0 * double(e.tp + e.fn) / double(e.total()), 1e-9);
+  EXPECT_NEAR(val[1]["full_moving"].get<double>(), 100 * e.moving_share(), 1e-9);
+  EXPECT_GT(val[1]["full_event_base_rate"].get<double>(), 0.0);
   EXPECT_GT(val[1]["full_iou"].get<double>(), val[0]["full_iou"].get<double>() + 5.0);
   EXPECT_EQ(r.best_val_iou,
             std::max(val[0]["full_iou"].get<double>(), val[1]["full_iou"].get<double>()));

@@ -445,6 +445,9 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     save_model_file(mp);
     double iou_sum = 0, det_sum = 0;
     size_t windows = 0;
+    // Event counts say whether the net tells moving objects from camera motion (precision above
+    // the share of moving events) or merely fires where there are events; IoU alone hides that.
+    EventCounts events;
     for (const auto& src : c.val) {
       EvalOptions eo;
       eo.model_path = mp;
@@ -459,10 +462,15 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
       iou_sum += w.iou_mean * double(w.windows);
       det_sum += w.detection_rate * double(w.windows);
       windows += w.windows;
+      if (w.has_events) events += w.events;
     }
     v["full_iou"] = windows ? iou_sum / double(windows) : 0.0;
     v["full_detection_rate"] = windows ? det_sum / double(windows) : 0.0;
     v["full_windows"] = windows;
+    v["full_event_precision"] = 100 * events.precision();
+    v["full_event_base_rate"] =
+        events.total() ? 100 * double(events.tp + events.fn) / double(events.total()) : 0.0;
+    v["full_moving"] = 100 * events.moving_share();
     std::error_code ec;
     fs::remove(mp, ec);
   };
@@ -656,7 +664,11 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
         curves.write((dir / "curves.svg").string());
         if (ro.progress) {
           const std::string whole =
-              full_val ? ", whole sensor " + percent(v["full_iou"].get<double>()) + " %" : "";
+              full_val
+                  ? ", whole sensor " + percent(v["full_iou"].get<double>()) +
+                        " %, event precision " + percent(v["full_event_precision"].get<double>()) +
+                        " % (base " + percent(v["full_event_base_rate"].get<double>()) + " %)"
+                  : "";
           std::fprintf(stderr, "%sval step %lld: IoU %s %%%s (best %s at %lld), detection %s %%\n",
                        isatty(2) ? "\n" : "", (long long)st.step,
                        percent(v["iou"].get<double>()).c_str(), whole.c_str(),
