@@ -82,6 +82,42 @@ TEST(Delay, ShiftsWithLinearInterpolationAndHasExactGradients) {
             1e-6);
 }
 
+// Distillation: the BCE between the student's projected probability and the teacher's, over
+// the pixels with input events, by hand; its gradient by finite differences; zero where the
+// student already agrees (d/dP = alpha (p - q) for the sigmoid projection).
+TEST(Loss, DistillMatchesItsFormulaAndGradient) {
+  torch::manual_seed(10);
+  const int64_t T = 5, B = 2, C = 2, H = 3, W = 4;
+  const torch::Tensor in = (torch::rand({T, B, C, H, W}, torch::kDouble) < 0.3).to(torch::kDouble);
+  const torch::Tensor out = torch::rand({T, B, 1, H, W}, torch::kDouble);
+  torch::Tensor q = torch::rand({B, H, W}, torch::kDouble);
+  LossOptions o;
+  o.alpha = 4;
+  o.beta = 0.5;
+  const torch::Tensor P = out.sum(std::vector<int64_t>{0, 2});
+  double num = 0, den = 0;
+  for (int64_t b = 0; b < B; ++b)
+    for (int64_t y = 0; y < H; ++y)
+      for (int64_t x = 0; x < W; ++x) {
+        if (in.select(1, b).select(2, y).select(2, x).sum().item<double>() == 0) continue;
+        const double p = 1 / (1 + std::exp(-o.alpha * (P[b][y][x].item<double>() - o.beta)));
+        const double t = q[b][y][x].item<double>();
+        num += -(t * std::log(p) + (1 - t) * std::log(1 - p));
+        den += 1;
+      }
+  ASSERT_GT(den, 0);
+  EXPECT_NEAR(distill_loss(out, in, q, o).item<double>(), num / den, 1e-10);
+  EXPECT_LT(spikems::test::finite_difference_error(
+                [&](const torch::Tensor& v) { return distill_loss(v, in, q, o); }, out),
+            1e-6);
+  // The teacher agreeing with the student: no gradient anywhere.
+  const torch::Tensor agree = projection_probability(P, o);
+  torch::Tensor v = out.clone().requires_grad_(true);
+  distill_loss(v, in, agree, o).backward();
+  EXPECT_LT(v.grad().abs().max().item<double>(), 1e-12);
+  EXPECT_THROW(distill_loss(out, in, q.narrow(2, 0, 2), o), std::exception);  // wrong grid
+}
+
 TEST(Loss, BceAndVanRossumMatchTheirFormulasAndGradients) {
   torch::manual_seed(9);
   const int64_t T = 6, B = 2, C = 2, H = 3, W = 4;

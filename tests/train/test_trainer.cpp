@@ -307,6 +307,14 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(msg({"loss.kind=hinge"}).find("loss.kind: \"hinge\" is not one of bce, spike, both"),
             std::string::npos);
   EXPECT_NE(msg({"model.init_rates=[0.1]"}).find("model.init_rates"), std::string::npos);
+  EXPECT_NE(msg({"loss.teacher_weight=-1.0"}).find("loss.teacher_weight: must not be negative"),
+            std::string::npos);
+  EXPECT_NE(msg({"loss.teacher_weight=1.0"}).find("loss.teacher: needs an ANN-2D model file"),
+            std::string::npos);
+  EXPECT_NE(msg({"loss.teacher_weight=1.0", "loss.teacher=\"t.safetensors\"", "model.type=ann2d",
+                 "loss.kind=bce"})
+                .find("loss.teacher_weight: distils into the spiking network"),
+            std::string::npos);
   EXPECT_NE(msg({"model.channels=[16, 1.5]"}).find("model.channels: each level's channels"),
             std::string::npos);
   EXPECT_NE(msg({"model.channels=[]"}).find("model.channels: needs 1 to 6"), std::string::npos);
@@ -395,7 +403,8 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   // `spikems eval`'s number for its model file.
   const std::string dir = scratch_dir() + "/ann";
   const std::string data = scratch_dir() + "/data";
-  auto ov = one_sequence_overrides(data, 100);
+  const auto base = one_sequence_overrides(data, 100);
+  auto ov = base;
   for (const char* k : {"model.type=ann2d", "sample.warmup_ms=0", "sample.centred_fraction=1.0",
                         "loss.kind=bce", "loss.iou_weight=1.0", "optim.lr=0.003",
                         "run.val_every=100", "run.val_full_s=0.2", "run.val_full_window_ms=20"})
@@ -421,6 +430,38 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   EXPECT_NEAR(val[1]["full_iou"].get<double>(), w.iou_mean, 1e-9);
   // ann2d has no spike trains: L_spike is refused.
   EXPECT_THROW(load_train_config(config_path(), {"model.type=ann2d", "loss.kind=both"}), Error);
+
+  // The trained ANN as the SNN's teacher (loss.teacher): every other term off, the SNN's loss
+  // is the distillation alone, logged as "distill", and it falls.
+  // (Beside the ANN's folder: scratch_dir() would empty the test's folder, data included.)
+  const std::string student = (std::filesystem::path(dir).parent_path() / "student").string();
+  auto sv = base;
+  for (const std::string k :
+       {"loss.kind=spike", "loss.lambda=0.0", "loss.iou_weight=0.0", "loss.activity_weight=0.0",
+        "loss.floor_weight=0.0", "loss.teacher_weight=1.0", "optim.lr=0.003"})
+    sv.push_back(k);
+  sv.push_back("loss.teacher=" + dir + "/model.safetensors");
+  EXPECT_EQ(train_quietly(sv, student).steps, 100);
+  const auto st = read_log(student, "train");
+  ASSERT_EQ(st.size(), 100u);
+  double first = 0, last = 0;
+  for (size_t i = 0; i < 10; ++i) {
+    first += st[i]["distill"].get<double>() / 10;
+    last += st[90 + i]["distill"].get<double>() / 10;
+  }
+  for (const auto& line : st)
+    EXPECT_NEAR(line["loss"].get<double>(), line["distill"].get<double>(), 1e-5);
+  EXPECT_GT(first, 0.0);
+  EXPECT_LT(last, 0.9 * first) << "distillation loss of steps 1-10 vs 91-100";
+  // A teacher that is not an ANN-2D (the student's own file) is refused, naming the key.
+  auto bad = sv;
+  bad.push_back("loss.teacher=" + student + "/model.safetensors");
+  try {
+    train_quietly(bad, student + "2");
+    ADD_FAILURE() << "an SNN teacher was accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("loss.teacher"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Trainer, NonFiniteLossStopsNamingTheStep) {

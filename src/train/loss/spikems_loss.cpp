@@ -76,6 +76,23 @@ torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input
   return ((1 - (inter + 1) / (uni + 1)) * has).sum() / torch::clamp_min(has.sum(), 1.0);
 }
 
+torch::Tensor distill_loss(const torch::Tensor& out, const torch::Tensor& input,
+                           const torch::Tensor& teacher_prob, const LossOptions& o) {
+  TORCH_CHECK(
+      out.size(1) == input.size(1) && out.size(3) == input.size(3) && out.size(4) == input.size(4),
+      "loss: output and input must share batch and pixel grid (use align_to_input)");
+  TORCH_CHECK(teacher_prob.dim() == 3 && teacher_prob.size(0) == out.size(1) &&
+                  teacher_prob.size(1) == out.size(3) && teacher_prob.size(2) == out.size(4),
+              "distillation: the teacher's probabilities must be [B, H, W] on the output's grid");
+  const torch::Tensor p =
+      torch::clamp(projection_probability(spike_projection(out, o.ts), o), 1e-6, 1 - 1e-6);
+  const torch::Tensor q = teacher_prob.detach().to(p.dtype());
+  const torch::Tensor had =
+      (input.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(p.dtype());  // [B, H, W]
+  const torch::Tensor bce = -(q * torch::log(p) + (1 - q) * torch::log1p(-p));
+  return (bce * had).sum() / torch::clamp_min(had.sum(), 1.0);
+}
+
 torch::Tensor van_rossum_loss(const torch::Tensor& out, const torch::Tensor& target,
                               const LossOptions& o) {
   torch::Tensor tgt = target;

@@ -63,6 +63,14 @@ torch::Tensor van_rossum_loss(const torch::Tensor& out, const torch::Tensor& tar
 // the cheapest answer: measured); L_bce or the sparsity term handle their false positives.
 torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input,
                             const torch::Tensor& fg_mask, const LossOptions& o);
+// Distillation from a teacher (beyond the paper): teacher_prob [B, H, W] is another model's
+// probability that the pixel's events are moving (the ANN-2D's sigmoid of its logit); the
+// student's p = projection_probability(P) is pulled to it by the binary cross-entropy
+// -(q log p + (1 - q) log(1 - p)) averaged over the pixels with input events (where the
+// teacher's answer means something). Unlike the mask it says at every ego-motion event how
+// sure a net that discriminates is that it is background. p is clamped to [1e-6, 1 - 1e-6].
+torch::Tensor distill_loss(const torch::Tensor& out, const torch::Tensor& input,
+                           const torch::Tensor& teacher_prob, const LossOptions& o);
 // target = input masked by the foreground mask, [T, B, C, H, W].
 torch::Tensor foreground_target(const torch::Tensor& input, const torch::Tensor& fg_mask);
 LossTerms spikems_loss(const torch::Tensor& out, const torch::Tensor& input,

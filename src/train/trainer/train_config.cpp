@@ -255,6 +255,8 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("loss", "kind", c.loss);
   b.bind("loss", "lambda", c.lambda);
   b.bind("loss", "iou_weight", c.iou_weight);
+  b.bind("loss", "teacher", c.teacher);
+  b.bind("loss", "teacher_weight", c.teacher_weight);
   b.bind("loss", "projection", c.projection);
   b.bind("loss", "alpha", c.alpha);
   b.bind("loss", "beta", c.beta);
@@ -328,6 +330,11 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.type == "ann2d" && (c.loss == "spike" || c.loss == "both"))
     b.bad("loss", "kind", "the ANN-2D baseline has no output spikes: use \"bce\" or \"iou\"");
   if (c.iou_weight < 0) b.bad("loss", "iou_weight", "must not be negative");
+  if (!(c.teacher_weight >= 0)) b.bad("loss", "teacher_weight", "must not be negative");
+  if (c.teacher_weight > 0 && c.teacher.empty())
+    b.bad("loss", "teacher", "needs an ANN-2D model file when loss.teacher_weight > 0");
+  if (c.teacher_weight > 0 && c.type == "ann2d")
+    b.bad("loss", "teacher_weight", "distils into the spiking network: model.type = \"snn\"");
   one_of(b, "loss", "projection", c.projection, {"sigmoid", "exponential"});
   if (c.lambda < 0) b.bad("loss", "lambda", "must not be negative");
   if (c.activity_weight < 0) b.bad("loss", "activity_weight", "must not be negative");

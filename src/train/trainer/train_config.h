@@ -44,9 +44,13 @@ struct TrainConfig {
   // [sample]
   SampleOptions sample;
   // [loss]
-  std::string loss = "both";           // bce | spike | both | iou
-  double lambda = 0.1;                 // weight of L_spike
-  double iou_weight = 0;               // weight of the soft-IoU term (kind "iou": it alone)
+  std::string loss = "both";  // bce | spike | both | iou
+  double lambda = 0.1;        // weight of L_spike
+  double iou_weight = 0;      // weight of the soft-IoU term (kind "iou": it alone)
+  // Distillation (spikems_loss.h, distill_loss): an ANN-2D model file whose per-pixel
+  // probabilities the SNN's output is pulled to, with this weight (0: off).
+  std::string teacher;
+  double teacher_weight = 0;
   std::string projection = "sigmoid";  // sigmoid | exponential
   double alpha = 4.0, beta = 0.5, kappa = 1.0;
   bool all_pixels = true;

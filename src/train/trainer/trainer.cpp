@@ -87,13 +87,13 @@ LossOptions loss_options(const TrainConfig& c, double ts) {
 }
 
 struct StepOutput {
-  torch::Tensor total, bce, spike, iou, activity;
+  torch::Tensor total, bce, spike, iou, activity, distill;
   std::vector<double> rates;
   torch::Tensor out_window, fg_window, in_window;
 };
 
-StepOutput forward_loss(SpikeMSNetwork& net, const BatchTensors& bt, const TrainConfig& c,
-                        const LossOptions& lo, double ts) {
+StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, const BatchTensors& bt,
+                        const TrainConfig& c, const LossOptions& lo, double ts) {
   const int64_t T = bt.input.size(0), H = bt.input.size(3), W = bt.input.size(4);
   const int64_t w0 = bt.warmup_steps, tw = T - w0;
   // Truncated: the layers come back as their window steps only (lw0 = 0).
@@ -124,7 +124,17 @@ StepOutput forward_loss(SpikeMSNetwork& net, const BatchTensors& bt, const Train
     if (c.floor_weight > 0 && c.rate_ceiling > 0 && k + 1 < layers.size())
       o.activity = o.activity + c.floor_weight * torch::relu(rate / c.rate_ceiling - 1).pow(2);
   }
-  o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity;
+  o.distill = zero;
+  if (teacher && c.teacher_weight > 0) {
+    torch::Tensor q;  // the teacher's probability per pixel, [B, H, W]
+    {
+      torch::NoGradGuard ng;
+      const torch::Tensor feat = ann_feature_tensor(bt.input, w0, ts);
+      q = torch::sigmoid(align_to_input(teacher->forward(feat), H, W).squeeze(1));
+    }
+    o.distill = distill_loss(out, in, q, lo);
+  }
+  o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity + c.teacher_weight * o.distill;
   o.out_window = out;
   o.fg_window = fg;
   o.in_window = in;
@@ -148,7 +158,7 @@ StepOutput ann_forward_loss(Ann2dNetwork& net, const BatchTensors& bt, const Tra
   const auto zero = torch::zeros({}, logits.options());
   o.bce = c.loss == "iou" ? zero : l.bce;
   o.iou = l.iou;
-  o.spike = o.activity = zero;
+  o.spike = o.activity = o.distill = zero;
   o.total = o.bce + iou_w * o.iou;
   for (const auto& a : layers)
     o.rates.push_back((a.detach() > 0).to(torch::kFloat).mean().item<double>());
@@ -161,13 +171,14 @@ StepOutput ann_forward_loss(Ann2dNetwork& net, const BatchTensors& bt, const Tra
 struct TrainNet {
   SpikeMSNetwork snn{nullptr};
   Ann2dNetwork ann{nullptr};
+  Ann2dNetwork teacher{nullptr};  // loss.teacher: fixed, not trained, not saved
   torch::nn::Module& module() {
     return snn ? static_cast<torch::nn::Module&>(*snn) : static_cast<torch::nn::Module&>(*ann);
   }
   ModelSpec to_spec() const { return snn ? snn->to_spec() : ann->to_spec(); }
   size_t size() const { return snn ? snn->size() : ann->size(); }
   StepOutput step(const BatchTensors& bt, const TrainConfig& c, const LossOptions& lo, double ts) {
-    return snn ? forward_loss(snn, bt, c, lo, ts) : ann_forward_loss(ann, bt, c, ts);
+    return snn ? forward_loss(snn, teacher, bt, c, lo, ts) : ann_forward_loss(ann, bt, c, ts);
   }
 };
 
@@ -333,6 +344,19 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     net.snn->set_kernels(parse_kernel_path(c.kernels));
     if (c.delays)
       for (size_t k = 0; k < net.size(); ++k) net.snn->layer(k)->enable_delay(true);
+  }
+  if (c.teacher_weight > 0) {
+    const ModelSpec t = load_model(c.teacher);  // a missing or bad file names itself
+    if (t.type != ModelType::ANN2D)
+      fail("loss.teacher", "", c.teacher + " is not an ANN-2D model: the teacher must be one");
+    if (std::abs(t.time_step_ms - ts) > 1e-9)
+      fail("loss.teacher", "",
+           c.teacher + " was trained with " + std::to_string(t.time_step_ms) +
+               " ms steps; this run's sample.step_ms is " + std::to_string(ts) +
+               ": its features would differ");
+    net.teacher = Ann2dNetwork(t);
+    net.teacher->eval();
+    net.teacher->to(device);
   }
   torch::optim::Adam opt(
       net.module().parameters(),
@@ -508,7 +532,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   TrainResult res;
   double ema_loss = -1, ema_iou = -1;
   WindowScores train_ws;
-  double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_soft_iou = 0, sum_act = 0;
+  double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_soft_iou = 0, sum_act = 0, sum_distill = 0;
   double sum_comm = 0;  // seconds in collectives, waiting for the slowest rank included
   std::vector<double> sum_rates(net.size(), 0.0);
   std::vector<double> sum_grad;  // per parameter tensor, summed over the log interval
@@ -542,10 +566,10 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     StepOutput o = net.step(bt, c, lo, ts);
     // This rank's numbers for the log, gathered from every rank before the backward pass so
     // that a non-finite loss anywhere stops every rank before any weight changes:
-    // [loss terms x5, rates, interrupted, then (intersection, predicted, truth) per window].
-    std::vector<double> mine = {o.total.item<double>(), o.bce.item<double>(),
-                                o.spike.item<double>(), o.iou.item<double>(),
-                                o.activity.item<double>()};
+    // [loss terms x6, rates, interrupted, then (intersection, predicted, truth) per window].
+    std::vector<double> mine = {o.total.item<double>(),    o.bce.item<double>(),
+                                o.spike.item<double>(),    o.iou.item<double>(),
+                                o.activity.item<double>(), o.distill.item<double>()};
     mine.insert(mine.end(), o.rates.begin(), o.rates.end());
     mine.push_back(world > 1 && (interrupted() || out_of_time()) ? 1.0 : 0.0);
     for (const auto& m :
@@ -555,7 +579,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     const std::vector<double> all = dist.all_gather(mine);
     double comm_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_comm).count();
-    const size_t per_rank = mine.size(), head = 5 + n_rates;
+    const size_t per_rank = mine.size(), head = 6 + n_rates;
     // Each rank's loss is the mean over its share; the run's loss is the mean over the ranks
     // (the same number a single process computes for losses that are means over samples).
     std::vector<double> terms(head, 0.0);
@@ -611,7 +635,8 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     sum_spike += terms[2];
     sum_soft_iou += terms[3];
     sum_act += terms[4];
-    for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += terms[5 + k];
+    sum_distill += terms[5];
+    for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += terms[6 + k];
     ++in_sum;
     st.wall_seconds =
         wall_before +
@@ -643,9 +668,10 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
            double(in_sum * c.batch) / std::max(1e-9, st.wall_seconds - res.wall_seconds)},
           {"wall_s", st.wall_seconds}};
       if (world > 1) line["comm_ms"] = std::round(1e4 * sum_comm / in_sum) / 10;
+      if (c.teacher_weight > 0) line["distill"] = sum_distill / in_sum;
       log_line(line);
       res.wall_seconds = st.wall_seconds;
-      sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = sum_comm = 0;
+      sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = sum_distill = sum_comm = 0;
       std::fill(sum_rates.begin(), sum_rates.end(), 0.0);
       std::fill(sum_grad.begin(), sum_grad.end(), 0.0);
       in_sum = 0;
