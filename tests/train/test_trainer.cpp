@@ -462,6 +462,18 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("loss.teacher"), std::string::npos) << e.what();
   }
+  // Nor one trained with other time steps: its event-frame features would differ.
+  auto other_step = sv;
+  other_step.push_back("sample.step_ms=0.5");
+  try {
+    train_quietly(other_step, student + "3");
+    ADD_FAILURE() << "a teacher of 1 ms steps was accepted for 0.5 ms steps";
+  } catch (const std::exception& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("trained with 1 ms steps, this run's sample.step_ms is 0.5"),
+        std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Trainer, NonFiniteLossStopsNamingTheStep) {

@@ -125,7 +125,7 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, const BatchTe
       o.activity = o.activity + c.floor_weight * torch::relu(rate / c.rate_ceiling - 1).pow(2);
   }
   o.distill = zero;
-  if (teacher && c.teacher_weight > 0) {
+  if (teacher) {      // set only when loss.teacher_weight > 0
     torch::Tensor q;  // the teacher's probability per pixel, [B, H, W]
     {
       torch::NoGradGuard ng;
@@ -349,11 +349,14 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     const ModelSpec t = load_model(c.teacher);  // a missing or bad file names itself
     if (t.type != ModelType::ANN2D)
       fail("loss.teacher", "", c.teacher + " is not an ANN-2D model: the teacher must be one");
-    if (std::abs(t.time_step_ms - ts) > 1e-9)
-      fail("loss.teacher", "",
-           c.teacher + " was trained with " + std::to_string(t.time_step_ms) +
-               " ms steps; this run's sample.step_ms is " + std::to_string(ts) +
-               ": its features would differ");
+    if (std::abs(t.time_step_ms - ts) > 1e-9) {
+      char why[160];
+      std::snprintf(why, sizeof why,
+                    " was trained with %g ms steps, this run's sample.step_ms is %g: its input "
+                    "features would differ",
+                    t.time_step_ms, ts);
+      fail("loss.teacher", "", c.teacher + why);
+    }
     net.teacher = Ann2dNetwork(t);
     net.teacher->eval();
     net.teacher->to(device);
