@@ -12,7 +12,16 @@
 # ROOMS (per training chunk, default 32), BATCH (8), WAIT_B (s: train without the second chunk
 # if it is not made by then, default 290), CUDA_TESTS=1 (also build test_train and run the
 # NeuronCuda tests: the fused kernels and the data-driven initialisation on the GPU against the CPU).
+# For a dry run on a CPU machine: SKIP_BUILD=<a spikems> DEVICE=cpu (EXTRA: more train arguments).
 set -u
+# Checked before any work: a malformed run would only fail after minutes of device time.
+if [ $# -gt 4 ]; then echo "device.sh: at most 4 runs (\$OUT returns 8 files), got $#" >&2; exit 2; fi
+for spec in "$@"; do
+  if ! [[ $spec =~ ^[A-Za-z0-9_.-]+= ]]; then
+    echo "device.sh: '$spec' is not NAME='ARGS' (NAME of letters, digits, '.', '_', '-')" >&2
+    exit 2
+  fi
+done
 T0=$SECONDS
 OUT=${OUT:-/tmp/gpu-out}
 mkdir -p "$OUT"
