@@ -6,6 +6,7 @@
 
 #include "core/runtime/ann2d_network.h"
 #include "core/runtime/ann_features.h"
+#include "core/util/error.h"
 #include "train/loss/ann_loss.h"
 #include "train/network/ann2d_network.h"
 
@@ -26,6 +27,30 @@ TEST(Ann2dTorch, FeaturesEqualTheCoreFeatures) {
     for (size_t i = 0; i < core.size(); ++i)
       ASSERT_NEAR(fb.data_ptr<float>()[i], core[i], 1e-6) << "sample " << b << " value " << i;
   }
+}
+
+// Merged in runs of `group` steps, the features equal the core's on the window binned at
+// group x Ts: a pixel spikes in a coarse step when it spiked in any of its fine steps.
+TEST(Ann2dTorch, GroupedFeaturesEqualTheCoarseBinning) {
+  torch::manual_seed(4);
+  const int64_t T = 15, B = 2, H = 4, W = 6, w0 = 3, group = 4;  // window: 12 steps, 3 coarse
+  const double ts = 0.5;
+  torch::Tensor spikes = (torch::rand({T, B, 2, H, W}) < 0.15).to(torch::kFloat);
+  const torch::Tensor f = ann_feature_tensor(spikes / ts, w0, ts, group);
+  ASSERT_EQ(f.sizes(), (std::vector<int64_t>{B, 4, H, W}));
+  for (int64_t b = 0; b < B; ++b) {
+    std::vector<uint8_t> coarse(3 * 2 * H * W, 0);  // binned by hand, OR over each run
+    for (int64_t t = 0; t < T - w0; ++t)
+      for (int64_t i = 0; i < 2 * H * W; ++i)
+        if (spikes[w0 + t][b].flatten()[i].item<float>() > 0)
+          coarse[(t / group) * 2 * H * W + i] = 1;
+    const auto core = ann_features(coarse.data(), 3, int(H), int(W));
+    torch::Tensor fb = f[b].contiguous();
+    for (size_t i = 0; i < core.size(); ++i)
+      ASSERT_NEAR(fb.data_ptr<float>()[i], core[i], 1e-6) << "sample " << b << " value " << i;
+  }
+  // A window that is not a whole number of runs is refused.
+  EXPECT_THROW(ann_feature_tensor(spikes / ts, w0, ts, 5), Error);
 }
 
 TEST(Ann2dTorch, ForwardEqualsTheCoreForward) {

@@ -462,18 +462,32 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("loss.teacher"), std::string::npos) << e.what();
   }
-  // Nor one trained with other time steps: its event-frame features would differ.
-  auto other_step = sv;
-  other_step.push_back("sample.step_ms=0.5");
-  try {
-    train_quietly(other_step, student + "3");
-    ADD_FAILURE() << "a teacher of 1 ms steps was accepted for 0.5 ms steps";
-  } catch (const std::exception& e) {
-    EXPECT_NE(
-        std::string(e.what()).find("trained with 1 ms steps, this run's sample.step_ms is 0.5"),
-        std::string::npos)
-        << e.what();
+  // Nor one whose step is not a whole multiple of the run's (its event frame cannot be made
+  // from the run's bins): finer, or 1 ms against 0.4 ms.
+  for (const char* step : {"2", "0.4"}) {
+    auto other_step = sv;
+    other_step.push_back(std::string("sample.step_ms=") + step);
+    try {
+      train_quietly(other_step, student + "3");
+      ADD_FAILURE() << "a teacher of 1 ms steps was accepted for " << step << " ms steps";
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("trained with 1 ms steps, this run's "
+                                                       "sample.step_ms is ") +
+                                           step),
+                std::string::npos)
+          << e.what();
+    }
   }
+  // A teacher of coarser steps is re-binned: the same ANN teaches a student at 0.5 ms steps
+  // (its frame merges the student's steps in pairs) and the distillation still falls.
+  auto finer = sv;
+  finer.push_back("sample.step_ms=0.5");
+  finer.push_back("optim.steps=40");
+  EXPECT_EQ(train_quietly(finer, student + "4").steps, 40);
+  const auto fl = read_log(student + "4", "train");
+  ASSERT_EQ(fl.size(), 40u);
+  EXPECT_LT(fl.back()["distill"].get<double>() + fl[38]["distill"].get<double>(),
+            0.95 * (fl[0]["distill"].get<double>() + fl[1]["distill"].get<double>()));
 }
 
 TEST(Trainer, NonFiniteLossStopsNamingTheStep) {

@@ -72,10 +72,21 @@ ModelSpec Ann2dNetworkImpl::to_spec() const {
   return s;
 }
 
-torch::Tensor ann_feature_tensor(const torch::Tensor& input, int64_t w0, double ts) {
+torch::Tensor ann_feature_tensor(const torch::Tensor& input, int64_t w0, double ts, int64_t group) {
   torch::NoGradGuard ng;
-  const int64_t T = input.size(0) - w0;
+  int64_t T = input.size(0) - w0;
+  if (group < 1 || T % group != 0)
+    fail("ann features", "",
+         "the window's " + std::to_string(T) + " steps cannot be merged in runs of " +
+             std::to_string(group));
   torch::Tensor s = (input.narrow(0, w0, T) * ts > 0.5).to(torch::kFloat);  // [T, B, 2, H, W]
+  if (group > 1) {
+    auto shape = s.sizes().vec();
+    shape[0] = group;
+    shape.insert(shape.begin(), T / group);
+    s = s.reshape(shape).amax(1);
+    T /= group;
+  }
   auto when = (torch::arange(T, s.options()) + 0.5) / double(T);
   torch::Tensor count = s.sum(0);
   torch::Tensor mean_t = (s * when.view({T, 1, 1, 1, 1})).sum(0) / count.clamp_min(1);

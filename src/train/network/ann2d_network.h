@@ -33,6 +33,11 @@ TORCH_MODULE(Ann2dNetwork);
 
 // [B, 4, H, W]: ann_features for the window steps [w0, T) of input spikes [T, B, 2, H, W]
 // (values 1/Ts): the same features as core's ann_features, computed on the batch.
-torch::Tensor ann_feature_tensor(const torch::Tensor& input, int64_t w0, double ts);
+// group > 1: the window's steps are first merged in runs of `group` (a spike in any of them is
+// one spike), which is exactly the binning at group x Ts (one spike per pixel, polarity and
+// step) of the same events: features for an ANN trained with coarser steps (loss.teacher).
+// The window's step count must be a multiple of group.
+torch::Tensor ann_feature_tensor(const torch::Tensor& input, int64_t w0, double ts,
+                                 int64_t group = 1);
 
 }  // namespace spikems::train

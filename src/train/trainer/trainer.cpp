@@ -92,8 +92,10 @@ struct StepOutput {
   torch::Tensor out_window, fg_window, in_window;
 };
 
-StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, const BatchTensors& bt,
-                        const TrainConfig& c, const LossOptions& lo, double ts) {
+// teacher_group: the teacher's time step in this run's steps (1, or a whole multiple).
+StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teacher_group,
+                        const BatchTensors& bt, const TrainConfig& c, const LossOptions& lo,
+                        double ts) {
   const int64_t T = bt.input.size(0), H = bt.input.size(3), W = bt.input.size(4);
   const int64_t w0 = bt.warmup_steps, tw = T - w0;
   // Truncated: the layers come back as their window steps only (lw0 = 0).
@@ -129,7 +131,7 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, const BatchTe
     torch::Tensor q;  // the teacher's probability per pixel, [B, H, W]
     {
       torch::NoGradGuard ng;
-      const torch::Tensor feat = ann_feature_tensor(bt.input, w0, ts);
+      const torch::Tensor feat = ann_feature_tensor(bt.input, w0, ts, teacher_group);
       q = torch::sigmoid(align_to_input(teacher->forward(feat), H, W).squeeze(1));
     }
     o.distill = distill_loss(out, in, q, lo);
@@ -172,13 +174,15 @@ struct TrainNet {
   SpikeMSNetwork snn{nullptr};
   Ann2dNetwork ann{nullptr};
   Ann2dNetwork teacher{nullptr};  // loss.teacher: fixed, not trained, not saved
+  int64_t teacher_group = 1;      // the teacher's step in this run's steps
   torch::nn::Module& module() {
     return snn ? static_cast<torch::nn::Module&>(*snn) : static_cast<torch::nn::Module&>(*ann);
   }
   ModelSpec to_spec() const { return snn ? snn->to_spec() : ann->to_spec(); }
   size_t size() const { return snn ? snn->size() : ann->size(); }
   StepOutput step(const BatchTensors& bt, const TrainConfig& c, const LossOptions& lo, double ts) {
-    return snn ? forward_loss(snn, teacher, bt, c, lo, ts) : ann_forward_loss(ann, bt, c, ts);
+    return snn ? forward_loss(snn, teacher, teacher_group, bt, c, lo, ts)
+               : ann_forward_loss(ann, bt, c, ts);
   }
 };
 
@@ -349,14 +353,21 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     const ModelSpec t = load_model(c.teacher);  // a missing or bad file names itself
     if (t.type != ModelType::ANN2D)
       fail("loss.teacher", "", c.teacher + " is not an ANN-2D model: the teacher must be one");
-    if (std::abs(t.time_step_ms - ts) > 1e-9) {
-      char why[160];
+    // A teacher trained with coarser steps sees the window re-binned at its own step (exact:
+    // ann_feature_tensor's group), so one that discriminates on a single 10 ms frame, and
+    // transfers to real cameras best, can teach a student running at 1 or 2 ms.
+    const double ratio = t.time_step_ms / ts;
+    const int64_t group = std::llround(ratio), window_steps = c.sample.window_us / c.sample.step_us;
+    if (group < 1 || std::abs(ratio - double(group)) > 1e-6 || window_steps % group != 0) {
+      char why[256];
       std::snprintf(why, sizeof why,
-                    " was trained with %g ms steps, this run's sample.step_ms is %g: its input "
-                    "features would differ",
-                    t.time_step_ms, ts);
+                    " was trained with %g ms steps, this run's sample.step_ms is %g and its "
+                    "window %g ms: the teacher's step must be a whole multiple of the run's "
+                    "that divides the window",
+                    t.time_step_ms, ts, double(c.sample.window_us) / 1000.0);
       fail("loss.teacher", "", c.teacher + why);
     }
+    net.teacher_group = group;
     net.teacher = Ann2dNetwork(t);
     net.teacher->eval();
     net.teacher->to(device);
