@@ -307,6 +307,12 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(msg({"loss.kind=hinge"}).find("loss.kind: \"hinge\" is not one of bce, spike, both"),
             std::string::npos);
   EXPECT_NE(msg({"model.init_rates=[0.1]"}).find("model.init_rates"), std::string::npos);
+  EXPECT_NE(msg({"loss.rate_ceilings=[0.1]"})
+                .find("loss.rate_ceilings: needs one ceiling per hidden layer (5)"),
+            std::string::npos);
+  EXPECT_NE(msg({"loss.rate_ceilings=[0.1, 0.1, 1.5, 0.1, 0.1]"})
+                .find("loss.rate_ceilings: each must lie above loss.rate_floor"),
+            std::string::npos);
   EXPECT_NE(msg({"loss.teacher_weight=-1.0"}).find("loss.teacher_weight: must not be negative"),
             std::string::npos);
   EXPECT_NE(msg({"loss.teacher_weight=1.0"}).find("loss.teacher: needs an ANN-2D model file"),
@@ -488,6 +494,37 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   ASSERT_EQ(fl.size(), 40u);
   EXPECT_LT(fl.back()["distill"].get<double>() + fl[38]["distill"].get<double>(),
             0.95 * (fl[0]["distill"].get<double>() + fl[1]["distill"].get<double>()));
+}
+
+// loss.rate_ceilings: each hidden layer pays floor_weight * (rate / its ceiling - 1)^2 above its
+// own ceiling (0: none); with every other rate term off the logged activity is that sum of the
+// logged rates, step by step.
+TEST(Trainer, PerLayerRateCeilingsEnterTheActivityTerm) {
+  const std::string dir = scratch_dir() + "/run";
+  auto ov = tiny_overrides(4);
+  const std::vector<double> ceil = {0.001, 0.0, 0.9, 0.002, 0.0};  // 5 hidden layers
+  for (const char* k :
+       {"loss.activity_weight=0.0", "loss.floor_weight=1.0", "loss.rate_floor=0.0",
+        "loss.output_floor=0.0", "loss.rate_ceilings=[0.001, 0.0, 0.9, 0.002, 0.0]"})
+    ov.push_back(k);
+  EXPECT_EQ(train_quietly(ov, dir).steps, 4);
+  const auto lines = read_log(dir, "train");
+  ASSERT_EQ(lines.size(), 4u);
+  int paid = 0;
+  for (const auto& line : lines) {
+    ASSERT_EQ(line["rates"].size(), 6u);
+    double want = 0;
+    for (size_t k = 0; k < ceil.size(); ++k)
+      if (ceil[k] > 0) {
+        const double over = std::max(0.0, line["rates"][k].get<double>() / ceil[k] - 1);
+        want += over * over;
+        paid += over > 0;
+      }
+    // Rates are logged to 6 decimals: 1e-6 / 0.001 relative, squared terms of ~10^2.
+    EXPECT_NEAR(line["activity"].get<double>(), want, 1e-3 * std::max(1.0, want))
+        << "step " << line["step"];
+  }
+  EXPECT_GT(paid, 0) << "no layer fired above its ceiling: the check above tested nothing";
 }
 
 TEST(Trainer, NonFiniteLossStopsNamingTheStep) {

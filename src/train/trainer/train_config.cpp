@@ -269,6 +269,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("loss", "floor_weight", c.floor_weight);
   b.bind("loss", "output_floor", c.output_floor);
   b.bind("loss", "rate_ceiling", c.rate_ceiling);
+  b.bind_list("loss", "rate_ceilings", c.rate_ceilings);
   b.bind("optim", "lr", c.lr);
   b.bind("optim", "min_lr", c.min_lr);
   b.bind("optim", "weight_decay", c.weight_decay);
@@ -343,6 +344,13 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.rate_ceiling < 0 || c.rate_ceiling > 1) b.bad("loss", "rate_ceiling", "must lie in [0, 1]");
   if (c.rate_ceiling > 0 && c.rate_ceiling <= c.rate_floor)
     b.bad("loss", "rate_ceiling", "must be above loss.rate_floor (or 0: off)");
+  if (!c.rate_ceilings.empty() && c.rate_ceilings.size() + 1 != 2 * c.channels.size())
+    b.bad("loss", "rate_ceilings",
+          "needs one ceiling per hidden layer (" + std::to_string(2 * c.channels.size() - 1) + ")");
+  for (double r : c.rate_ceilings)
+    if (!(r == 0 || (r > c.rate_floor && r <= 1)))
+      b.bad("loss", "rate_ceilings",
+            "each must lie above loss.rate_floor and at most 1 (or 0: off)");
   if (c.output_floor < 0 || c.output_floor >= 1)
     b.bad("loss", "output_floor", "must lie in [0, 1)");
   positive(b, "loss", "pos_weight", c.pos_weight);

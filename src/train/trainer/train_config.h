@@ -68,6 +68,10 @@ struct TrainConfig {
   // above it: fine-tuning a densely firing model drove layers 3-5 from 3-9 % to 15-34 % firing
   // (inhibiting the output) within 50 steps (measured, docs/training.md).
   double rate_ceiling = 0;
+  // One ceiling per hidden layer (empty: rate_ceiling for each; 0: none for that layer). The
+  // runtime's cost is the spikes times their fan-out, dominated by the full-resolution levels:
+  // the coarse levels have 4^(level-1) fewer neurons and can fire far more for little cost.
+  std::vector<double> rate_ceilings;
   // [optim]
   double lr = 1e-3, min_lr = 1e-5, weight_decay = 0;
   bool amsgrad = true;

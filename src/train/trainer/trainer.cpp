@@ -123,8 +123,11 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
     const double floor = k + 1 < layers.size() ? c.rate_floor : c.output_floor;
     if (c.floor_weight > 0 && floor > 0)
       o.activity = o.activity + c.floor_weight * torch::relu(1 - rate / floor).pow(2);
-    if (c.floor_weight > 0 && c.rate_ceiling > 0 && k + 1 < layers.size())
-      o.activity = o.activity + c.floor_weight * torch::relu(rate / c.rate_ceiling - 1).pow(2);
+    const double ceiling = c.rate_ceilings.empty()      ? c.rate_ceiling
+                           : k < c.rate_ceilings.size() ? c.rate_ceilings[k]
+                                                        : 0.0;
+    if (c.floor_weight > 0 && ceiling > 0 && k + 1 < layers.size())
+      o.activity = o.activity + c.floor_weight * torch::relu(rate / ceiling - 1).pow(2);
   }
   o.distill = zero;
   if (teacher) {      // set only when loss.teacher_weight > 0
@@ -349,6 +352,10 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     if (c.delays)
       for (size_t k = 0; k < net.size(); ++k) net.snn->layer(k)->enable_delay(true);
   }
+  if (!c.rate_ceilings.empty() && c.rate_ceilings.size() + 1 != net.size())
+    fail("loss.rate_ceilings", "",
+         "gives " + std::to_string(c.rate_ceilings.size()) + " ceilings, the network has " +
+             std::to_string(net.size() - 1) + " hidden layers");
   if (c.teacher_weight > 0) {
     const ModelSpec t = load_model(c.teacher);  // a missing or bad file names itself
     if (t.type != ModelType::ANN2D)
