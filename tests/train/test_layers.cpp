@@ -118,6 +118,56 @@ TEST(Loss, DistillMatchesItsFormulaAndGradient) {
   EXPECT_THROW(distill_loss(out, in, q.narrow(2, 0, 2), o), std::exception);  // wrong grid
 }
 
+// The potential readout: P = max over steps and channels of u / theta, p = sigmoid(alpha (P - 1))
+// (1/2 exactly at threshold), in L_bce, the soft IoU and the distillation alike; L_spike
+// refuses a potential.
+TEST(Loss, PotentialReadoutScoresTheLargestPotential) {
+  torch::manual_seed(12);
+  const int64_t T = 5, B = 2, C = 2, H = 3, W = 4;
+  const torch::Tensor in = (torch::rand({T, B, C, H, W}, torch::kDouble) < 0.3).to(torch::kDouble);
+  torch::Tensor mask = (torch::rand({B, H, W}, torch::kDouble) < 0.5).to(torch::kDouble);
+  const torch::Tensor u = torch::rand({T, B, 1, H, W}, torch::kDouble) * 0.6 - 0.2;
+  LossOptions o;
+  o.potential_readout = true;
+  o.readout_theta = 0.22;
+  o.alpha = 3;
+  o.beta = 7;  // ignored: the readout's decision level is theta
+  double bce = 0, den = 0, inter = 0, uni = 0;
+  for (int64_t b = 0; b < B; ++b)
+    for (int64_t y = 0; y < H; ++y)
+      for (int64_t x = 0; x < W; ++x) {
+        const double m = u.select(1, b).select(2, y).select(2, x).max().item<double>();
+        EXPECT_NEAR(output_projection(u, o)[b][y][x].item<double>(), m / 0.22, 1e-12);
+        const double p = 1 / (1 + std::exp(-3 * (m / 0.22 - 1)));
+        const double ev = in.select(1, b).select(2, y).select(2, x).sum().item<double>();
+        const bool fg = mask[b][y][x].item<double>() > 0;
+        if (b == 0) {  // soft IoU of sample 0 alone (sample 1 has no moving object below)
+          const double g = ev > 0 && fg ? 1 : 0;
+          inter += p * g;
+          uni += p + g - p * g;
+        }
+        if (ev == 0) continue;
+        bce += fg ? -std::log(p) : -std::log(1 - p);
+        den += 1;
+      }
+  ASSERT_GT(den, 0);
+  EXPECT_NEAR(bce_loss(u, in, mask, o).item<double>(), bce / den, 1e-10);
+  EXPECT_LT(spikems::test::finite_difference_error(
+                [&](const torch::Tensor& v) { return bce_loss(v, in, mask, o); }, u),
+            1e-6);
+  torch::Tensor m1 = mask.clone();
+  m1[1].zero_();
+  EXPECT_NEAR(soft_iou_loss(u, in, m1, o).item<double>(), 1 - (inter + 1) / (uni + 1), 1e-10);
+  // The teacher saying what the readout says: no distillation gradient.
+  torch::Tensor v = u.clone().requires_grad_(true);
+  distill_loss(v, in, projection_probability(output_projection(u, o), o), o).backward();
+  EXPECT_LT(v.grad().abs().max().item<double>(), 1e-12);
+  EXPECT_THROW(van_rossum_loss(u, u, o), std::exception);
+  LossOptions ex = o;
+  ex.projection = LossOptions::Projection::Exponential;
+  EXPECT_THROW(bce_loss(u, in, mask, ex), std::exception);
+}
+
 TEST(Loss, BceAndVanRossumMatchTheirFormulasAndGradients) {
   torch::manual_seed(9);
   const int64_t T = 6, B = 2, C = 2, H = 3, W = 4;

@@ -209,6 +209,50 @@ TEST(RuntimeVsTorch, SkipModelMatchesInEveryPath) {
   }
 }
 
+// The potential readout (model.readout = "potential"): the output layer without refractory
+// (scale_ref = 0) spikes at every step its potential is at or above theta, in torch and in
+// the runtime alike, so the runtime labels events by the potential the loss scored.
+TEST(RuntimeVsTorch, ReadoutWithoutRefractoryMatches) {
+  for (auto [d, seed] :
+       {std::tuple{Discretisation::FIR, 27u}, std::tuple{Discretisation::IIR, 28u}}) {
+    SCOPED_TRACE(d == Discretisation::FIR ? "FIR" : "IIR");
+    ModelSpec m = random_model(d, seed, {4, 6, 8}, true, 0.3f);
+    m.layers.back().neuron.scale_ref = 0;
+    fill_fir_kernels(m);
+    torch::manual_seed(seed);
+    const torch::Tensor input = (torch::rand({40, 1, 2, 13, 21}) < 0.05).to(torch::kFloat);
+    torch::Tensor u;
+    std::vector<torch::Tensor> layers;
+    {
+      torch::NoGradGuard ng;
+      train::SpikeMSNetwork net(m);
+      layers = net->forward_all(input, &u);
+    }
+    const double ts = m.time_step_ms, theta = m.layers.back().neuron.theta;
+    ASSERT_EQ(u.sizes(), layers.back().sizes());
+    // Torch's output spikes are exactly u >= theta at every step, and some pixel spikes at
+    // consecutive steps (which a refractory would forbid).
+    EXPECT_TRUE(torch::equal(layers.back() * ts, (u >= theta).to(torch::kFloat)));
+    const torch::Tensor o = layers.back();
+    const int64_t both = ((o.narrow(0, 1, o.size(0) - 1) > 0) & (o.narrow(0, 0, o.size(0) - 1) > 0))
+                             .sum()
+                             .item<int64_t>();
+    EXPECT_GT(both, 5) << "no output pixel stayed above threshold: the case tests nothing";
+    const auto want = sorted_steps(layers.back());
+    const auto steps = to_steps(input);
+    StreamingNetwork net(m, 13, 21);
+    int spikes = 0;
+    for (size_t t = 0; t < steps.size(); ++t) {
+      net.step(steps[t]);
+      auto got = net.layer_spikes(m.layers.size() - 1);
+      std::sort(got.begin(), got.end());
+      spikes += int(got.size());
+      ASSERT_EQ(got, want[t]) << "step " << t;
+    }
+    EXPECT_GT(spikes, 50);
+  }
+}
+
 TEST(RuntimeVsTorch, FirLayersMatch) {
   check(Discretisation::FIR, 21, 1e-5);
 }

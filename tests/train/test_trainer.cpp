@@ -178,6 +178,40 @@ TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
   EXPECT_TRUE(fs::exists(dir + "/curves.svg"));
 }
 
+// model.readout = "potential": the loss scores the output layer's potential; the run learns
+// as the spiking readout does, and the model file's output layer has no refractory (so the
+// runtime's labels are the potential's threshold crossings; RuntimeVsTorch checks those).
+TEST(Trainer, PotentialReadoutLearnsAndSavesAnOutputWithoutRefractory) {
+  const std::string dir = scratch_dir() + "/run";
+  const std::string data = scratch_dir() + "/data";
+  auto ov = one_sequence_overrides(data, 60);
+  for (const char* k :
+       {"sample.centred_fraction=1.0", "optim.lr=0.003", "loss.kind=bce", "loss.floor_weight=0.0",
+        "loss.activity_weight=0.0", "run.val_every=60", "run.val_full_s=0.2",
+        "run.val_full_window_ms=20", "sample.warmup_ms=30", "model.readout=\"potential\""})
+    ov.push_back(k);
+  EXPECT_EQ(train_quietly(ov, dir).steps, 60);
+  auto train = read_log(dir, "train");
+  ASSERT_EQ(train.size(), 60u);
+  EXPECT_LT(mean_loss(train, 50, 60), 0.7 * mean_loss(train, 0, 10))
+      << "mean loss of steps 1-10 vs 51-60";
+  auto val = read_log(dir, "val");
+  ASSERT_EQ(val.size(), 2u);
+  EXPECT_GT(val[1]["full_iou"].get<double>(), val[0]["full_iou"].get<double>() + 5.0);
+  const ModelSpec m = load_model(dir + "/model.safetensors");
+  EXPECT_EQ(m.layers.back().neuron.scale_ref, 0.f);
+  EXPECT_EQ(m.layers.front().neuron.scale_ref, NeuronParams{}.scale_ref);
+  // L_spike compares spike trains: refused with the potential readout, naming the key.
+  auto bad = ov;
+  bad.push_back("loss.kind=both");
+  try {
+    load_train_config(config_path(), bad);
+    ADD_FAILURE() << "loss.kind = both was accepted with the potential readout";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("loss.kind"), std::string::npos) << e.what();
+  }
+}
+
 // Runs `spikems train` as a child process and kills it with SIGKILL once its first checkpoint
 // is on disk.
 void train_and_kill(const std::vector<std::string>& args, const std::string& dir) {

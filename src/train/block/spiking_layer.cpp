@@ -29,14 +29,17 @@ torch::Tensor SpikingLayerImpl::potential(const torch::Tensor& x) {
   return synapse_forward(psp(x, eps_, ts_), weight, geom_);
 }
 
-torch::Tensor SpikingLayerImpl::forward(const torch::Tensor& x) {
-  torch::Tensor s = spike(potential(x), spike_);
+torch::Tensor SpikingLayerImpl::forward(const torch::Tensor& x, torch::Tensor* u) {
+  const torch::Tensor v = potential(x);
+  if (u) *u = v;
+  torch::Tensor s = spike(v, spike_);
   if (delay.defined()) s = axonal_delay(s, delay);
   return s;
 }
 
 torch::Tensor SpikingLayerImpl::forward_window(const torch::Tensor& x, int64_t w0,
-                                               const torch::Tensor& warm_out) {
+                                               const torch::Tensor& warm_out,
+                                               torch::Tensor* u_out) {
   TORCH_CHECK(!delay.defined(), "a truncated warm-up needs layers without axonal delays");
   const int64_t T = x.size(0), tw = T - w0;
   TORCH_CHECK(w0 > 0 && tw > 0 && warm_out.size(0) == w0,
@@ -58,6 +61,7 @@ torch::Tensor SpikingLayerImpl::forward_window(const torch::Tensor& x, int64_t w
                                 : apply_temporal_kernel_ops(sp, k, ts_, false);
     offset = r.narrow(0, w0, tw).reshape(u.sizes());
   }
+  if (u_out) *u_out = u + offset;
   return spike(u + offset, spike_);
 }
 

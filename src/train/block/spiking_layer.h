@@ -18,8 +18,10 @@ class SpikingLayerImpl : public torch::nn::Module {
   SpikingLayerImpl(const LayerSpec& spec, double ts,
                    SpikeGradient gradient = SpikeGradient::Slayer);
 
-  // x: [T, B, C_in, H, W] spikes -> [T, B, C_out, H', W'] spikes.
-  torch::Tensor forward(const torch::Tensor& x);
+  // x: [T, B, C_in, H, W] spikes -> [T, B, C_out, H', W'] spikes. `u`, when given, receives
+  // the synaptic potential the spikes came from (the potential readout's value; with the
+  // refractory off, scale_ref = 0, it is the membrane and the spikes are u >= theta).
+  torch::Tensor forward(const torch::Tensor& x, torch::Tensor* u = nullptr);
   // The synaptic potential u = W (*) (eps * x), before spike generation (for diagnostics).
   torch::Tensor potential(const torch::Tensor& x);
   // Truncated warm-up: the layer's spikes over steps [w0, T) only, given its whole input x
@@ -27,7 +29,9 @@ class SpikingLayerImpl : public torch::nn::Module {
   // spikes over [0, w0) from that pass (`warm_out`). The values equal forward(x)'s last T - w0
   // steps (the warm-up's refractory enters as a constant offset, the synapse runs on the
   // window's frames only); no gradient flows into the warm-up. Refuses layers with delays.
-  torch::Tensor forward_window(const torch::Tensor& x, int64_t w0, const torch::Tensor& warm_out);
+  // `u` as forward's, over the window's steps (the warm-up's refractory responses included).
+  torch::Tensor forward_window(const torch::Tensor& x, int64_t w0, const torch::Tensor& warm_out,
+                               torch::Tensor* u = nullptr);
 
   // The layer spec with the current weight and delay values.
   LayerSpec to_spec() const;

@@ -17,7 +17,16 @@ torch::Tensor spike_projection(const torch::Tensor& out, double ts) {
   return out.sum(std::vector<int64_t>{0, 2}) * ts;
 }
 
+torch::Tensor output_projection(const torch::Tensor& out, const LossOptions& o) {
+  if (!o.potential_readout) return spike_projection(out, o.ts);
+  TORCH_CHECK(out.dim() == 5, "loss: the readout potential must be [T, B, C, H, W]");
+  TORCH_CHECK(o.projection == LossOptions::Projection::Sigmoid,
+              "loss: the potential readout needs the sigmoid projection");
+  return out.amax(std::vector<int64_t>{0, 2}) / o.readout_theta;
+}
+
 torch::Tensor projection_probability(const torch::Tensor& P, const LossOptions& o) {
+  if (o.potential_readout) return torch::sigmoid(o.alpha * (P - 1.0));
   if (o.projection == LossOptions::Projection::Sigmoid)
     return torch::sigmoid(o.alpha * (P - o.beta));
   return 1 - torch::exp(-P / o.kappa);
@@ -32,7 +41,7 @@ torch::Tensor bce_loss(const torch::Tensor& out, const torch::Tensor& input,
   TORCH_CHECK(
       out.size(1) == input.size(1) && out.size(3) == input.size(3) && out.size(4) == input.size(4),
       "loss: output and input must share batch and pixel grid (use align_to_input)");
-  torch::Tensor P = spike_projection(out, o.ts);  // [B, H, W]
+  torch::Tensor P = output_projection(out, o);  // [B, H, W]
   torch::Tensor had =
       (input.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(out.dtype());  // pixels with events
   torch::Tensor fg =
@@ -40,7 +49,7 @@ torch::Tensor bce_loss(const torch::Tensor& out, const torch::Tensor& input,
           .to(out.dtype());
   torch::Tensor l;
   if (o.projection == LossOptions::Projection::Sigmoid) {
-    torch::Tensor z = o.alpha * (P - o.beta);
+    torch::Tensor z = o.alpha * (P - (o.potential_readout ? 1.0 : o.beta));
     // -[y log s(z) + (1-y) log(1-s(z))] = y softplus(-z) + (1-y) softplus(z)
     l = o.pos_weight * fg * torch::softplus(-z) + (1 - fg) * torch::softplus(z);
   } else {
@@ -64,7 +73,8 @@ torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input
   TORCH_CHECK(
       out.size(1) == input.size(1) && out.size(3) == input.size(3) && out.size(4) == input.size(4),
       "loss: output and input must share batch and pixel grid (use align_to_input)");
-  torch::Tensor p = -torch::expm1(-spike_projection(out, o.ts) / o.kappa);  // [B, H, W]
+  torch::Tensor p = o.potential_readout ? projection_probability(output_projection(out, o), o)
+                                        : -torch::expm1(-spike_projection(out, o.ts) / o.kappa);
   if (o.gate_events) p = p * (input.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(out.dtype());
   torch::Tensor y = (foreground_target(input.detach(), fg_mask).sum(std::vector<int64_t>{0, 2}) > 0)
                         .to(out.dtype());
@@ -85,7 +95,7 @@ torch::Tensor distill_loss(const torch::Tensor& out, const torch::Tensor& input,
                   teacher_prob.size(1) == out.size(3) && teacher_prob.size(2) == out.size(4),
               "distillation: the teacher's probabilities must be [B, H, W] on the output's grid");
   const torch::Tensor p =
-      torch::clamp(projection_probability(spike_projection(out, o.ts), o), 1e-6, 1 - 1e-6);
+      torch::clamp(projection_probability(output_projection(out, o), o), 1e-6, 1 - 1e-6);
   const torch::Tensor q = teacher_prob.detach().to(p.dtype());
   const torch::Tensor had =
       (input.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(p.dtype());  // [B, H, W]
@@ -95,6 +105,7 @@ torch::Tensor distill_loss(const torch::Tensor& out, const torch::Tensor& input,
 
 torch::Tensor van_rossum_loss(const torch::Tensor& out, const torch::Tensor& target,
                               const LossOptions& o) {
+  TORCH_CHECK(!o.potential_readout, "loss: L_spike compares spike trains, not a readout potential");
   torch::Tensor tgt = target;
   if (out.size(2) == 1 && target.size(2) != 1) tgt = target.sum(2, true);
   TORCH_CHECK(out.sizes() == tgt.sizes(), "van Rossum loss: output and target shapes differ");

@@ -37,6 +37,13 @@ struct LossOptions {
   // Predictions count only where input events fell (eval --gate-events): the soft IoU's p is
   // taken at pixels with input events only (L_bce with all_pixels = false already is).
   bool gate_events = false;
+  // The potential readout (model.readout = "potential", docs/training.md): `out` is then the
+  // output layer's synaptic potential u [T, B, C, H, W], not spikes, and P(x) = max_{t,c}
+  // u / readout_theta; p = sigmoid(alpha (P - 1)), so p > 1/2 exactly where the runtime, whose
+  // output layer then spikes at every step with u >= theta (no refractory), labels events
+  // moving. Sigmoid projection only; L_spike does not apply.
+  bool potential_readout = false;
+  double readout_theta = 1.0;
   double ts = 1.0;   // time step (ms)
   double tau = 2.0;  // van Rossum kernel time constant (ms)
   TemporalKernel kernel = TemporalKernel::alpha(2.0, 1.0, 1.0);  // eps for L_spike
@@ -48,6 +55,8 @@ struct LossTerms {
 
 // P(x): [B, H, W] output spike counts.
 torch::Tensor spike_projection(const torch::Tensor& out, double ts);
+// P(x) of the loss's output: spike_projection, or with potential_readout max_{t,c} u / theta.
+torch::Tensor output_projection(const torch::Tensor& out, const LossOptions& o);
 // The probability p(P) of the chosen projection (for evaluation and plots).
 torch::Tensor projection_probability(const torch::Tensor& counts, const LossOptions& o);
 torch::Tensor bce_loss(const torch::Tensor& out, const torch::Tensor& input,

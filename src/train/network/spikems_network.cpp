@@ -38,16 +38,19 @@ torch::Tensor SpikeMSNetworkImpl::forward(const torch::Tensor& x) {
   return forward_all(x).back();
 }
 
-std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all(const torch::Tensor& x) {
+std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all(const torch::Tensor& x,
+                                                           torch::Tensor* readout) {
   std::vector<torch::Tensor> out;
   for (size_t k = 0; k < layers_.size(); ++k)
-    out.push_back(layers_[k]->forward(input_of(k, x, out)));
+    out.push_back(
+        layers_[k]->forward(input_of(k, x, out), k + 1 == layers_.size() ? readout : nullptr));
   return out;
 }
 
 std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all_truncated(const torch::Tensor& x,
-                                                                     int64_t w0) {
-  if (w0 <= 0) return forward_all(x);
+                                                                     int64_t w0,
+                                                                     torch::Tensor* readout) {
+  if (w0 <= 0) return forward_all(x, readout);
   const int64_t T = x.size(0);
   TORCH_CHECK(w0 < T, "forward_all_truncated: the warm-up must be shorter than the input");
   // Pass 1: the warm-up alone, forward only and without a graph.
@@ -65,7 +68,8 @@ std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all_truncated(const torch
   const torch::Tensor xs = x.narrow(0, w0, T - w0);
   for (size_t k = 0; k < layers_.size(); ++k)
     out.push_back(layers_[k]->forward_window(torch::cat({warm_in[k], input_of(k, xs, out)}, 0), w0,
-                                             warm_out[k]));
+                                             warm_out[k],
+                                             k + 1 == layers_.size() ? readout : nullptr));
   return out;
 }
 

@@ -23,13 +23,16 @@ class SpikeMSNetworkImpl : public torch::nn::Module {
   explicit SpikeMSNetworkImpl(const ModelSpec& spec,
                               SpikeGradient gradient = SpikeGradient::Slayer);
 
-  torch::Tensor forward(const torch::Tensor& x);                   // last layer's spikes
-  std::vector<torch::Tensor> forward_all(const torch::Tensor& x);  // every layer's spikes
+  torch::Tensor forward(const torch::Tensor& x);  // last layer's spikes
+  // Every layer's spikes; `readout`, when given, receives the last layer's synaptic potential
+  // (the potential readout, docs/training.md), at no extra cost.
+  std::vector<torch::Tensor> forward_all(const torch::Tensor& x, torch::Tensor* readout = nullptr);
   // Truncated warm-up (the trainer's optim.warmup_backprop = false): the first w0 steps run
   // without gradients, then every layer's spikes over [w0, T) are computed with gradients from
   // that state (SpikingLayerImpl::forward_window). Returns the T - w0 window steps of each
-  // layer; their values equal forward_all(x)'s. w0 = 0 is forward_all.
-  std::vector<torch::Tensor> forward_all_truncated(const torch::Tensor& x, int64_t w0);
+  // layer (and of `readout`); their values equal forward_all(x)'s. w0 = 0 is forward_all.
+  std::vector<torch::Tensor> forward_all_truncated(const torch::Tensor& x, int64_t w0,
+                                                   torch::Tensor* readout = nullptr);
 
   // Layer k's input: the network input, its predecessor's spikes, or those and its skip
   // source's concatenated on the channels (out: the spikes of layers 0 .. k-1).

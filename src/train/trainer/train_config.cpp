@@ -206,6 +206,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
     b.bad("model", "channels", "needs 1 to 6 encoder levels (the paper: [16, 32, 64])");
   b.bind_list("model", "tau_s", c.tau_s);
   b.bind("model", "skips", c.skips);
+  b.bind("model", "readout", c.readout);
   if (c.skips && (!c.padded || c.type != "snn"))
     b.bad("model", "skips", "skip connections need a spiking model with padded = true");
   std::vector<double> levels(c.skip_levels.begin(), c.skip_levels.end());
@@ -328,6 +329,15 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (s.threshold_jitter < 0) b.bad("sample", "threshold_jitter", "must not be negative");
   if (s.noise_hz_max < 0) b.bad("sample", "noise_hz_max", "must not be negative");
   one_of(b, "loss", "kind", c.loss, {"bce", "spike", "both", "iou"});
+  one_of(b, "model", "readout", c.readout, {"spikes", "potential"});
+  if (c.readout == "potential" && c.type != "snn")
+    b.bad("model", "readout", "a readout potential needs a spiking model (model.type = \"snn\")");
+  if (c.readout == "potential" && (c.loss == "spike" || c.loss == "both"))
+    b.bad(
+        "loss", "kind",
+        "L_spike compares spike trains: with model.readout = \"potential\" use \"bce\" or \"iou\"");
+  if (c.readout == "potential" && c.projection != "sigmoid")
+    b.bad("loss", "projection", "model.readout = \"potential\" needs \"sigmoid\"");
   if (c.type == "ann2d" && (c.loss == "spike" || c.loss == "both"))
     b.bad("loss", "kind", "the ANN-2D baseline has no output spikes: use \"bce\" or \"iou\"");
   if (c.iou_weight < 0) b.bad("loss", "iou_weight", "must not be negative");

@@ -30,6 +30,10 @@ struct TrainConfig {
   // U-Net skip connections (encoder level i into the decoder layer at its resolution): the
   // gradient's short path through a deep stack (docs/training.md, "Skip connections").
   bool skips = false;
+  // "spikes" (the paper: the loss scores the output layer's spike counts) or "potential": the
+  // output layer loses its refractory (scale_ref = 0, saved in the model file) and the loss
+  // scores its synaptic potential, graded and without a surrogate (docs/training.md).
+  std::string readout = "spikes";
   // With skips: only these encoder levels (1-based, 1 = the finest) feed the decoder; empty =
   // every level. Leaving the finest out removes the output's two-layer path from the input.
   std::vector<int> skip_levels;

@@ -83,6 +83,7 @@ LossOptions loss_options(const TrainConfig& c, double ts) {
   o.pos_weight = c.pos_weight;
   o.balanced = c.balanced;
   o.gate_events = c.gate_events;
+  o.potential_readout = c.readout == "potential";
   return o;
 }
 
@@ -100,19 +101,23 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
   const int64_t w0 = bt.warmup_steps, tw = T - w0;
   // Truncated: the layers come back as their window steps only (lw0 = 0).
   const bool truncate = !c.warmup_backprop && w0 > 0;
-  std::vector<torch::Tensor> layers =
-      truncate ? net->forward_all_truncated(bt.input, w0) : net->forward_all(bt.input);
+  torch::Tensor u;  // the output layer's potential (model.readout = "potential")
+  torch::Tensor* readout = lo.potential_readout ? &u : nullptr;
+  std::vector<torch::Tensor> layers = truncate ? net->forward_all_truncated(bt.input, w0, readout)
+                                               : net->forward_all(bt.input, readout);
   const int64_t lw0 = truncate ? 0 : w0;
   StepOutput o;
   torch::Tensor out = align_to_input(layers.back(), H, W).narrow(0, lw0, tw);
+  // What the task's terms score: the spikes, or the potential they come from.
+  const torch::Tensor scored = readout ? align_to_input(u, H, W).narrow(0, lw0, tw) : out;
   torch::Tensor in = bt.input.narrow(0, w0, tw), fg = bt.fg.narrow(0, w0, tw);
   const auto zero = torch::zeros({}, out.options());
   const bool use_bce = c.loss == "bce" || c.loss == "both";
   const bool use_spike = c.loss == "spike" || c.loss == "both";
   const double iou_w = c.loss == "iou" ? 1.0 : c.iou_weight;
-  o.bce = use_bce ? bce_loss(out, in, fg, lo) : zero;
+  o.bce = use_bce ? bce_loss(scored, in, fg, lo) : zero;
   o.spike = use_spike ? van_rossum_loss(out, foreground_target(in, fg), lo) : zero;
-  o.iou = iou_w > 0 ? soft_iou_loss(out, in, fg, lo) : zero;
+  o.iou = iou_w > 0 ? soft_iou_loss(scored, in, fg, lo) : zero;
   o.activity = zero;
   for (size_t k = 0; k < layers.size(); ++k) {
     // Over the window only: in the warm-up the deep layers are still filling up (each adds
@@ -137,7 +142,7 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
       const torch::Tensor feat = ann_feature_tensor(bt.input, w0, ts, teacher_group);
       q = torch::sigmoid(align_to_input(teacher->forward(feat), H, W).squeeze(1));
     }
-    o.distill = distill_loss(out, in, q, lo);
+    o.distill = distill_loss(scored, in, q, lo);
   }
   o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity + c.teacher_weight * o.distill;
   o.out_window = out;
@@ -342,6 +347,14 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
 
   ModelSpec spec = initial_spec(c);
   spec.time_step_ms = ts;
+  if (c.readout == "potential" && spec.type == ModelType::SNN) {
+    // No refractory at the output: it spikes at every step its potential is at or above
+    // theta, the runtime's labels are then "u >= theta", the loss's p > 1/2.
+    LayerSpec& last = spec.layers.back();
+    last.neuron.scale_ref = 0;
+    if (last.neuron.discretisation == Discretisation::FIR)
+      last.ref_kernel = sample_refractory_kernel(last.neuron, ts);
+  }
   const SpikeGradient grad = c.backward == "exact" ? SpikeGradient::Exact : SpikeGradient::Slayer;
   TrainNet net;
   if (spec.type == ModelType::ANN2D) {
@@ -433,7 +446,8 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   const std::vector<Sample> val =
       !has_val || !root ? std::vector<Sample>{}
                         : validation_samples(val_ptr, c.sample, c.val_samples, c.seed);
-  const LossOptions lo = loss_options(c, ts);
+  LossOptions lo = loss_options(c, ts);
+  if (net.snn) lo.readout_theta = spec.layers.back().neuron.theta;
 
   auto save_model_file = [&](const std::string& path) {
     ModelSpec m = net.to_spec();
