@@ -344,6 +344,13 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(msg({"loss.rate_ceilings=[0.1]"})
                 .find("loss.rate_ceilings: needs one ceiling per hidden layer (5)"),
             std::string::npos);
+  EXPECT_NE(msg({"loss.rate_floors=[0.1, 0.1]"})
+                .find("loss.rate_floors: needs one floor per hidden layer (5)"),
+            std::string::npos);
+  EXPECT_NE(msg({"loss.rate_ceilings=[0.1, 0.1, 0.1, 0.1, 0.1]",
+                 "loss.rate_floors=[0.0, 0.2, 0.0, 0.0, 0.0]"})
+                .find("loss.rate_floors: each must lie in [0, 1) and below its layer's ceiling"),
+            std::string::npos);
   EXPECT_NE(msg({"loss.rate_ceilings=[0.1, 0.1, 1.5, 0.1, 0.1]"})
                 .find("loss.rate_ceilings: each must lie above loss.rate_floor"),
             std::string::npos);
@@ -530,35 +537,44 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
             0.95 * (fl[0]["distill"].get<double>() + fl[1]["distill"].get<double>()));
 }
 
-// loss.rate_ceilings: each hidden layer pays floor_weight * (rate / its ceiling - 1)^2 above its
-// own ceiling (0: none); with every other rate term off the logged activity is that sum of the
-// logged rates, step by step.
-TEST(Trainer, PerLayerRateCeilingsEnterTheActivityTerm) {
+// loss.rate_ceilings / rate_floors: each hidden layer pays floor_weight * (rate / its ceiling -
+// 1)^2 above its own ceiling and floor_weight * (1 - rate / its floor)^2 below its own floor (0:
+// none); with every other rate term off the logged activity is that sum of the logged rates.
+TEST(Trainer, PerLayerRateBoundsEnterTheActivityTerm) {
   const std::string dir = scratch_dir() + "/run";
   auto ov = tiny_overrides(4);
   const std::vector<double> ceil = {0.001, 0.0, 0.9, 0.002, 0.0};  // 5 hidden layers
-  for (const char* k :
-       {"loss.activity_weight=0.0", "loss.floor_weight=1.0", "loss.rate_floor=0.0",
-        "loss.output_floor=0.0", "loss.rate_ceilings=[0.001, 0.0, 0.9, 0.002, 0.0]"})
+  const std::vector<double> floor = {0.0, 0.6, 0.0, 0.0, 0.7};
+  for (const char* k : {"loss.activity_weight=0.0", "loss.floor_weight=1.0", "loss.rate_floor=0.0",
+                        "loss.output_floor=0.0", "loss.rate_ceilings=[0.001, 0.0, 0.9, 0.002, 0.0]",
+                        "loss.rate_floors=[0.0, 0.6, 0.0, 0.0, 0.7]"})
     ov.push_back(k);
   EXPECT_EQ(train_quietly(ov, dir).steps, 4);
   const auto lines = read_log(dir, "train");
   ASSERT_EQ(lines.size(), 4u);
-  int paid = 0;
+  int over_ceiling = 0, under_floor = 0;
   for (const auto& line : lines) {
     ASSERT_EQ(line["rates"].size(), 6u);
     double want = 0;
-    for (size_t k = 0; k < ceil.size(); ++k)
+    for (size_t k = 0; k < ceil.size(); ++k) {
+      const double r = line["rates"][k].get<double>();
       if (ceil[k] > 0) {
-        const double over = std::max(0.0, line["rates"][k].get<double>() / ceil[k] - 1);
+        const double over = std::max(0.0, r / ceil[k] - 1);
         want += over * over;
-        paid += over > 0;
+        over_ceiling += over > 0;
       }
+      if (floor[k] > 0) {
+        const double under = std::max(0.0, 1 - r / floor[k]);
+        want += under * under;
+        under_floor += under > 0;
+      }
+    }
     // Rates are logged to 6 decimals: 1e-6 / 0.001 relative, squared terms of ~10^2.
     EXPECT_NEAR(line["activity"].get<double>(), want, 1e-3 * std::max(1.0, want))
         << "step " << line["step"];
   }
-  EXPECT_GT(paid, 0) << "no layer fired above its ceiling: the check above tested nothing";
+  EXPECT_GT(over_ceiling, 0) << "no layer fired above its ceiling: that part tested nothing";
+  EXPECT_GT(under_floor, 0) << "no layer fired below its floor: that part tested nothing";
 }
 
 TEST(Trainer, NonFiniteLossStopsNamingTheStep) {

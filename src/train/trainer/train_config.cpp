@@ -271,6 +271,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("loss", "output_floor", c.output_floor);
   b.bind("loss", "rate_ceiling", c.rate_ceiling);
   b.bind_list("loss", "rate_ceilings", c.rate_ceilings);
+  b.bind_list("loss", "rate_floors", c.rate_floors);
   b.bind("optim", "lr", c.lr);
   b.bind("optim", "min_lr", c.min_lr);
   b.bind("optim", "weight_decay", c.weight_decay);
@@ -357,6 +358,16 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (!c.rate_ceilings.empty() && c.rate_ceilings.size() + 1 != 2 * c.channels.size())
     b.bad("loss", "rate_ceilings",
           "needs one ceiling per hidden layer (" + std::to_string(2 * c.channels.size() - 1) + ")");
+  if (!c.rate_floors.empty() && c.rate_floors.size() + 1 != 2 * c.channels.size())
+    b.bad("loss", "rate_floors",
+          "needs one floor per hidden layer (" + std::to_string(2 * c.channels.size() - 1) + ")");
+  for (size_t k = 0; k < c.rate_floors.size(); ++k) {
+    const double f = c.rate_floors[k];
+    const double ceil =
+        c.rate_ceilings.size() == c.rate_floors.size() ? c.rate_ceilings[k] : c.rate_ceiling;
+    if (!(f >= 0 && f < 1) || (ceil > 0 && f >= ceil))
+      b.bad("loss", "rate_floors", "each must lie in [0, 1) and below its layer's ceiling");
+  }
   for (double r : c.rate_ceilings)
     if (!(r == 0 || (r > c.rate_floor && r <= 1)))
       b.bad("loss", "rate_ceilings",

@@ -125,7 +125,10 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
     const torch::Tensor rate = layers[k].narrow(0, lw0, tw).mean() * ts;
     o.rates.push_back(rate.item<double>());
     if (c.activity_weight > 0) o.activity = o.activity + c.activity_weight * rate;
-    const double floor = k + 1 < layers.size() ? c.rate_floor : c.output_floor;
+    const double floor = k + 1 == layers.size()     ? c.output_floor
+                         : c.rate_floors.empty()    ? c.rate_floor
+                         : k < c.rate_floors.size() ? c.rate_floors[k]
+                                                    : 0.0;
     if (c.floor_weight > 0 && floor > 0)
       o.activity = o.activity + c.floor_weight * torch::relu(1 - rate / floor).pow(2);
     const double ceiling = c.rate_ceilings.empty()      ? c.rate_ceiling
@@ -365,6 +368,10 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     if (c.delays)
       for (size_t k = 0; k < net.size(); ++k) net.snn->layer(k)->enable_delay(true);
   }
+  if (!c.rate_floors.empty() && c.rate_floors.size() + 1 != net.size())
+    fail("loss.rate_floors", "",
+         "gives " + std::to_string(c.rate_floors.size()) + " floors, the network has " +
+             std::to_string(net.size() - 1) + " hidden layers");
   if (!c.rate_ceilings.empty() && c.rate_ceilings.size() + 1 != net.size())
     fail("loss.rate_ceilings", "",
          "gives " + std::to_string(c.rate_ceilings.size()) + " ceilings, the network has " +
