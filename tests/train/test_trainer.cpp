@@ -344,6 +344,11 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(msg({"loss.rate_ceilings=[0.1]"})
                 .find("loss.rate_ceilings: needs one ceiling per hidden layer (5)"),
             std::string::npos);
+  EXPECT_NE(msg({"model.readout=\"potential\"", "model.delays=true"})
+                .find("model.readout: the potential readout scores the output layer's undelayed"),
+            std::string::npos);
+  EXPECT_NE(msg({"model.readout=\"membrane\""}).find("model.readout: \"membrane\" is not one of"),
+            std::string::npos);
   EXPECT_NE(msg({"loss.rate_floors=[0.1, 0.1]"})
                 .find("loss.rate_floors: needs one floor per hidden layer (5)"),
             std::string::npos);

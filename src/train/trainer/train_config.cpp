@@ -337,6 +337,10 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
     b.bad(
         "loss", "kind",
         "L_spike compares spike trains: with model.readout = \"potential\" use \"bce\" or \"iou\"");
+  if (c.readout == "potential" && c.delays)
+    b.bad("model", "readout",
+          "the potential readout scores the output layer's undelayed potential: model.delays "
+          "must be false");
   if (c.readout == "potential" && c.projection != "sigmoid")
     b.bad("loss", "projection", "model.readout = \"potential\" needs \"sigmoid\"");
   if (c.type == "ann2d" && (c.loss == "spike" || c.loss == "both"))
