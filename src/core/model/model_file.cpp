@@ -236,9 +236,11 @@ ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<
     fail("architecture", "",
          "skip connections need the padded geometry (the unpadded one loses a pixel per level, "
          "so the sizes do not meet)");
-  if (!tau_s.empty() && tau_s.size() != widths.size())
+  const bool per_layer = tau_s.size() == 2 * widths.size();
+  if (!tau_s.empty() && tau_s.size() != widths.size() && !per_layer)
     fail("architecture tau_s", "",
-         "needs one time constant per level (" + std::to_string(widths.size()) + "), got " +
+         "needs one time constant per level (" + std::to_string(widths.size()) +
+             ") or per layer (" + std::to_string(2 * widths.size()) + "), got " +
              std::to_string(tau_s.size()));
   for (double t : tau_s)
     if (!(t >= 0.1 && t <= 100)) fail("architecture tau_s", "", "each must lie in 0.1..100 ms");
@@ -258,7 +260,7 @@ ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<
   };
   auto level = [&](const Neuron* table, int i) {
     Neuron nr = table[std::min(i, 2)];
-    if (!tau_s.empty()) nr.ts = float(tau_s[size_t(i)]);
+    if (!tau_s.empty() && !per_layer) nr.ts = float(tau_s[size_t(i)]);
     return nr;
   };
   std::vector<Row> rows;
@@ -274,6 +276,8 @@ ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<
     rows.push_back({LayerKind::ConvTranspose, widths[size_t(i)] * (skip ? 2 : 1),
                     i == 0 ? 2 : widths[size_t(i - 1)], level(dec, i), skip ? i : -1});
   }
+  if (per_layer)
+    for (size_t k = 0; k < rows.size(); ++k) rows[k].nr.ts = float(tau_s[k]);
   ModelSpec s;
   s.name = padded ? "spikems-padded" : "spikems";
   for (const auto& r : rows) {

@@ -110,13 +110,14 @@ bool has_sampled_kernels(const LayerSpec& l, double time_step_ms);
 // widths: the encoder's channels, one stride-2 level each (the paper: 16, 32, 64); the decoder
 // mirrors them back to 2. Levels past the third take the third's neuron parameters.
 // tau_s (ms), when given, one per level: the synaptic time constant of the level's encoder and
-// decoder layers (the paper's 2, 2, 4 otherwise). Each layer delays its output by about its
-// tau_s (the kernel's peak), so a deep stack answers late: see docs/training.md.
-// skips: U-Net skip connections, encoder level i's spikes into the decoder layer that works at
-// its resolution (every decoder layer but the first); needs padded. They give the gradient of
-// a deep stack a short path to the early layers (docs/training.md, "Skip connections").
-// skip_levels (with skips): only these encoder levels, 1-based (1 = the finest) and below the
-// bottleneck's level, feed the decoder; empty = every level. Throws Error naming a bad level.
+// decoder layers (the paper's 2, 2, 4 otherwise); or one per layer (2 x levels, in layer order:
+// encoder levels 1.., then the decoder back to the output). Each layer delays its output by about
+// its tau_s (the kernel's peak), so a deep stack answers late: see docs/training.md. skips: U-Net
+// skip connections, encoder level i's spikes into the decoder layer that works at its resolution
+// (every decoder layer but the first); needs padded. They give the gradient of a deep stack a short
+// path to the early layers (docs/training.md, "Skip connections"). skip_levels (with skips): only
+// these encoder levels, 1-based (1 = the finest) and below the bottleneck's level, feed the
+// decoder; empty = every level. Throws Error naming a bad level.
 ModelSpec spikems_architecture(bool padded, Discretisation d = Discretisation::FIR,
                                const std::vector<int>& widths = {16, 32, 64},
                                const std::vector<double>& tau_s = {}, bool skips = false,

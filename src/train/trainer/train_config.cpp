@@ -225,10 +225,12 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("model", "tau_rho", c.tau_rho);
   if (c.tau_rho != 0 && !(c.tau_rho >= 0.01 && c.tau_rho <= 100))
     b.bad("model", "tau_rho", "must lie in 0.01..100 (or 0: the model's own)");
-  if (!c.tau_s.empty() && c.tau_s.size() != c.channels.size())
+  if (!c.tau_s.empty() && c.tau_s.size() != c.channels.size() &&
+      c.tau_s.size() != 2 * c.channels.size())
     b.bad("model", "tau_s",
           "needs one time constant per level of model.channels (" +
-              std::to_string(c.channels.size()) + "), or [] for the paper's");
+              std::to_string(c.channels.size()) + ") or per layer (" +
+              std::to_string(2 * c.channels.size()) + "), or [] for the paper's");
   for (double t : c.tau_s)
     if (!(t >= 0.1 && t <= 100)) b.bad("model", "tau_s", "each must lie in 0.1..100 ms");
   c.init_rates.assign(2 * c.channels.size(), 0.03);

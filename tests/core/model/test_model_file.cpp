@@ -134,6 +134,16 @@ TEST(Architecture, TauPerLevelMirrorsAndSetsTheKernels) {
   EXPECT_EQ(s.layers[2].neuron.tau_r, base.layers[2].neuron.tau_r);
   EXPECT_THROW(spikems_architecture(true, Discretisation::IIR, {8, 16}, {1}), Error);
   EXPECT_THROW(spikems_architecture(true, Discretisation::IIR, {8}, {0}), Error);
+  // One per layer (2 x levels), in layer order: encoder, then the decoder to the output.
+  const ModelSpec p =
+      spikems_architecture(true, Discretisation::FIR, {8, 16, 32}, {8, 2, 3, 4, 5, 6});
+  for (size_t k = 0; k < 6; ++k) {
+    const double t = k == 0 ? 8 : double(k + 1);
+    EXPECT_EQ(p.layers[k].neuron.tau_s, t) << k;
+    const auto& e = p.layers[k].srm_kernel;
+    EXPECT_EQ(double(std::max_element(e.begin(), e.end()) - e.begin()), t) << k;
+  }
+  EXPECT_THROW(spikems_architecture(true, Discretisation::IIR, {8, 16}, {1, 1, 1}), Error);
 }
 
 static ModelSpec small_model() {
