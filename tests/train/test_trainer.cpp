@@ -501,8 +501,15 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
     first += st[i]["distill"].get<double>() / 10;
     last += st[90 + i]["distill"].get<double>() / 10;
   }
-  for (const auto& line : st)
+  for (const auto& line : st) {
     EXPECT_NEAR(line["loss"].get<double>(), line["distill"].get<double>(), 1e-5);
+    // The teacher's own entropy: in [0, ln 2], and no student's cross-entropy is below it
+    // (Gibbs' inequality, pixel by pixel, so for the mean too).
+    const double floor = line["distill_floor"].get<double>();
+    EXPECT_GE(floor, 0.0);
+    EXPECT_LE(floor, std::log(2.0) + 1e-9);
+    EXPECT_GE(line["distill"].get<double>(), floor - 1e-6) << "step " << line["step"];
+  }
   EXPECT_GT(first, 0.0);
   EXPECT_LT(last, 0.9 * first) << "distillation loss of steps 1-10 vs 91-100";
   // A teacher that is not an ANN-2D (the student's own file) is refused, naming the key.
