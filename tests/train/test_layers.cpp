@@ -110,11 +110,28 @@ TEST(Loss, DistillMatchesItsFormulaAndGradient) {
   EXPECT_LT(spikems::test::finite_difference_error(
                 [&](const torch::Tensor& v) { return distill_loss(v, in, q, o); }, out),
             1e-6);
-  // The teacher agreeing with the student: no gradient anywhere.
+  // The teacher agreeing with the student: no gradient anywhere, and the loss is the
+  // teacher's own entropy (the floor the trainer logs).
   const torch::Tensor agree = projection_probability(P, o);
   torch::Tensor v = out.clone().requires_grad_(true);
-  distill_loss(v, in, agree, o).backward();
+  const torch::Tensor at_agreement = distill_loss(v, in, agree, o);
+  at_agreement.backward();
   EXPECT_LT(v.grad().abs().max().item<double>(), 1e-12);
+  EXPECT_NEAR(at_agreement.item<double>(), teacher_entropy(in, agree).item<double>(), 1e-10);
+  // The entropy by hand, with 0 log 0 = 0 at a certain teacher.
+  torch::Tensor sure = q.clone();
+  sure[0][0][0] = 0.0;
+  sure[1][2][3] = 1.0;
+  double h = 0, n = 0;
+  for (int64_t b = 0; b < B; ++b)
+    for (int64_t y = 0; y < H; ++y)
+      for (int64_t x = 0; x < W; ++x) {
+        if (in.select(1, b).select(2, y).select(2, x).sum().item<double>() == 0) continue;
+        const double t = sure[b][y][x].item<double>();
+        h += (t > 0 ? -t * std::log(t) : 0) + (t < 1 ? -(1 - t) * std::log(1 - t) : 0);
+        n += 1;
+      }
+  EXPECT_NEAR(teacher_entropy(in, sure).item<double>(), h / n, 1e-10);
   EXPECT_THROW(distill_loss(out, in, q.narrow(2, 0, 2), o), std::exception);  // wrong grid
 }
 

@@ -10,6 +10,11 @@ torch::Tensor mask5(const torch::Tensor& m) {
   TORCH_CHECK(m.dim() == 3 || m.dim() == 4, "loss: fg_mask must be [B, H, W] or [T, B, H, W]");
   return m.dim() == 3 ? m.unsqueeze(0).unsqueeze(2) : m.unsqueeze(2);
 }
+// The mean of a per-pixel value [B, H, W] over the pixels where input [T, B, C, H, W] has events.
+torch::Tensor mean_over_event_pixels(const torch::Tensor& v, const torch::Tensor& input) {
+  const torch::Tensor had = (input.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(v.dtype());
+  return (v * had).sum() / torch::clamp_min(had.sum(), 1.0);
+}
 }  // namespace
 
 torch::Tensor spike_projection(const torch::Tensor& out, double ts) {
@@ -97,10 +102,14 @@ torch::Tensor distill_loss(const torch::Tensor& out, const torch::Tensor& input,
   const torch::Tensor p =
       torch::clamp(projection_probability(output_projection(out, o), o), 1e-6, 1 - 1e-6);
   const torch::Tensor q = teacher_prob.detach().to(p.dtype());
-  const torch::Tensor had =
-      (input.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(p.dtype());  // [B, H, W]
   const torch::Tensor bce = -(q * torch::log(p) + (1 - q) * torch::log1p(-p));
-  return (bce * had).sum() / torch::clamp_min(had.sum(), 1.0);
+  return mean_over_event_pixels(bce, input);
+}
+
+torch::Tensor teacher_entropy(const torch::Tensor& input, const torch::Tensor& teacher_prob) {
+  torch::NoGradGuard ng;
+  const torch::Tensor q = teacher_prob.detach();
+  return mean_over_event_pixels(-(torch::xlogy(q, q) + torch::xlogy(1 - q, 1 - q)), input);
 }
 
 torch::Tensor van_rossum_loss(const torch::Tensor& out, const torch::Tensor& target,

@@ -80,6 +80,9 @@ torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input
 // sure a net that discriminates is that it is background. p is clamped to [1e-6, 1 - 1e-6].
 torch::Tensor distill_loss(const torch::Tensor& out, const torch::Tensor& input,
                            const torch::Tensor& teacher_prob, const LossOptions& o);
+// The distillation's floor: the teacher's own mean binary entropy -(q log q + (1 - q) log(1 - q))
+// (0 log 0 = 0) over the pixels with input events: distill_loss of a student that matched it.
+torch::Tensor teacher_entropy(const torch::Tensor& input, const torch::Tensor& teacher_prob);
 // target = input masked by the foreground mask, [T, B, C, H, W].
 torch::Tensor foreground_target(const torch::Tensor& input, const torch::Tensor& fg_mask);
 LossTerms spikems_loss(const torch::Tensor& out, const torch::Tensor& input,

@@ -150,12 +150,7 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
       q = torch::sigmoid(align_to_input(teacher->forward(feat), H, W).squeeze(1));
     }
     o.distill = distill_loss(scored, in, q, lo);
-    {
-      torch::NoGradGuard ng;
-      const torch::Tensor had = (in.sum(std::vector<int64_t>{0, 2}) > 0).to(q.dtype());
-      const torch::Tensor h = -(torch::xlogy(q, q) + torch::xlogy(1 - q, 1 - q));  // 0 log 0 = 0
-      o.distill_floor = (h * had).sum() / had.sum().clamp_min(1.0);
-    }
+    o.distill_floor = teacher_entropy(in, q);
   }
   o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity + c.teacher_weight * o.distill;
   o.out_window = out;
