@@ -128,16 +128,17 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
     const torch::Tensor rate = layers[k].narrow(0, lw0, tw).mean() * ts;
     o.rates.push_back(rate.item<double>());
     if (c.activity_weight > 0) o.activity = o.activity + c.activity_weight * rate;
-    const double floor = k + 1 == layers.size()     ? c.output_floor
-                         : c.rate_floors.empty()    ? c.rate_floor
-                         : k < c.rate_floors.size() ? c.rate_floors[k]
-                                                    : 0.0;
+    // Per-layer lists, when given, have one entry per hidden layer (checked at start-up).
+    const bool hidden = k + 1 < layers.size();
+    const double floor = !hidden                 ? c.output_floor
+                         : c.rate_floors.empty() ? c.rate_floor
+                                                 : c.rate_floors[k];
     if (c.floor_weight > 0 && floor > 0)
       o.activity = o.activity + c.floor_weight * torch::relu(1 - rate / floor).pow(2);
-    const double ceiling = c.rate_ceilings.empty()      ? c.rate_ceiling
-                           : k < c.rate_ceilings.size() ? c.rate_ceilings[k]
-                                                        : 0.0;
-    if (c.floor_weight > 0 && ceiling > 0 && k + 1 < layers.size())
+    const double ceiling = !hidden                   ? 0.0
+                           : c.rate_ceilings.empty() ? c.rate_ceiling
+                                                     : c.rate_ceilings[k];
+    if (c.floor_weight > 0 && ceiling > 0)
       o.activity = o.activity + c.floor_weight * torch::relu(rate / ceiling - 1).pow(2);
   }
   o.distill = zero;
