@@ -8,6 +8,7 @@
 #include "core/eval/evaluation.h"
 #include "core/eval/window_list.h"
 #include "core/model/default_model.h"
+#include "core/model/output_threshold.h"
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
 
@@ -16,7 +17,7 @@ namespace {
 using namespace spikems;
 
 struct Args {
-  std::string windows = "20,100", split = "test", out, kalman, boxes;
+  std::string windows = "20,100", split = "test", out, kalman, boxes, thresholds;
   std::vector<std::string> models, data, baselines;
   int threads = 1;
   bool iir = false, quiet = false, gate_events = false, static_scene = false;
@@ -36,6 +37,8 @@ void run(const Args& a) {
   o.split = a.split;
   o.windows_us = parse_window_list_ms(a.windows);
   if (!a.kalman.empty()) o.kalman_us = parse_window_list_ms(a.kalman);
+  if (!a.thresholds.empty())
+    o.output_thresholds = parse_threshold_scales(a.thresholds, "--output-thresholds");
   o.threads = a.threads;
   o.iir = a.iir;
   o.gate_events = a.gate_events;
@@ -87,7 +90,10 @@ void add(CLI::App& app) {
       "  spikems eval --model m.safetensors --data ball.txt --boxes ball_boxes.csv --windows 10 "
       "(box ground truth, EED style)\n"
       "  spikems eval --model m.safetensors --data poster.npz --static-scene --windows 20   "
-      "(a static scene: the share of events called moving)");
+      "(a static scene: the share of events called moving)\n"
+      "  spikems eval --model m.safetensors --data data/val --output-thresholds 1,1.1,1.2,1.3 "
+      "--out o   (operating points: pick a factor on validation data, run it with segment "
+      "--output-threshold)");
   cmd->add_option("--model", a.models,
                   "Model file (.safetensors, spikems format); repeat to compare several "
                   "(default: the shipped model)");
@@ -110,6 +116,9 @@ void add(CLI::App& app) {
   cmd->add_option("--out", a.out,
                   "Folder for results.json, results.csv, results.md and report.html (with "
                   "plots/*.svg and windows/*.png)");
+  cmd->add_option("--output-thresholds", a.thresholds,
+                  "Score each model at these factors on its output layer's threshold (e.g. "
+                  "1,1.1,1.2,1.3): a row per factor and a precision-recall plot in the report");
   cmd->add_option("--threads", a.threads,
                   "Threads inside the network (the layers of a step run in parallel)")
       ->check(CLI::Range(1, 256));

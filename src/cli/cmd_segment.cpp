@@ -17,6 +17,7 @@
 #include "core/events/io.h"
 #include "core/model/default_model.h"
 #include "core/model/model_file.h"
+#include "core/model/output_threshold.h"
 #include "core/runtime/kalman_tracker.h"
 #include "core/runtime/segmenter.h"
 #include "core/util/atomic_file.h"
@@ -39,6 +40,7 @@ struct Args {
   int block_steps = 0;  // 0: 16 for files, 1 for a live stream on stdin
   int64_t step_us = 0;
   int tolerance = 3;
+  double output_threshold = 1;
   cli::ReadFlags read;
 };
 
@@ -173,6 +175,8 @@ void run(const Args& a) {
   install_interrupt_flag();
   ModelSpec model = load_model(a.model.empty() ? default_model_or_fail() : a.model);
   if (a.iir) model = with_iir_neurons(std::move(model), a.model);
+  if (a.output_threshold != 1)
+    model = with_output_threshold(std::move(model), a.output_threshold, "--output-threshold");
   ReadOptions ro;
   ro.sort = a.read.sort;
   ro.time_unit = a.read.time_unit;
@@ -339,6 +343,10 @@ void add(CLI::App& app) {
                 "IoU of output-spike pixels vs pixels with moving-object events (mean +- std), "
                 "and the 0-MMS detection rate");
   cmd->add_flag("--quiet", a.quiet, "No progress bar");
+  cmd->add_option("--output-threshold", a.output_threshold,
+                  "Factor on the output layer's threshold: > 1 labels fewer events moving "
+                  "(choose it with eval --output-thresholds on validation data)")
+      ->default_val(1.0);
   cmd->add_option("--threads", a.threads,
                   "Threads: the layers of each step run in parallel (at most one per layer)")
       ->check(CLI::Range(1, 256));

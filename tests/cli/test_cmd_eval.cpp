@@ -327,7 +327,8 @@ TEST_F(EvalCli, StaticSceneScoresTheShareOfEventsCalledMoving) {
   EXPECT_DOUBLE_EQ(share[2], 100.0);  // every event moving
   EXPECT_NE(out.find("moving %"), std::string::npos) << out;
   EXPECT_NE(slurp(o + "/results.md").find("static scene"), std::string::npos);
-  EXPECT_NE(slurp(o + "/results.csv").find(",moving_share\n"), std::string::npos);
+  EXPECT_NE(slurp(o + "/results.csv").find(",moving_share,output_threshold_scale\n"),
+            std::string::npos);
   // Without the flag the same file is refused for its missing labels; with boxes it is refused.
   EXPECT_EQ(run_command(eval("--data " + rec + " --out " + o + "x"), &out), 1);
   EXPECT_NE(out.find("no labels"), std::string::npos) << out;
@@ -335,6 +336,45 @@ TEST_F(EvalCli, StaticSceneScoresTheShareOfEventsCalledMoving) {
   EXPECT_EQ(run_command(eval("--data " + rec + " --static-scene --boxes " + dir_ + "/b.csv"), &out),
             1);
   EXPECT_NE(out.find("--static-scene"), std::string::npos) << out;
+}
+
+// --output-thresholds scores each model once per factor on its output threshold: a row each,
+// the factor in every file, and the operating points plotted in the report. The pass-all
+// model's potential peaks at 1.0 for a lone input spike (weight 1, kernel peak 1) against
+// θ = 0.22, so at a factor 4 its events stay labelled; with an input spike at every step it
+// reaches the kernel's sum, ~5.4, so at 50 nothing is.
+TEST_F(EvalCli, OutputThresholdsGiveARowPerFactorAndAnOperatingPointPlot) {
+  const std::string o = dir_ + "/out_thresholds";
+  std::string out;
+  ASSERT_EQ(run_command(eval("--data " + data() +
+                             " --split all --windows 20 --output-thresholds 1,4,50 --out " + o),
+                        &out),
+            0)
+      << out;
+  const auto j = nlohmann::json::parse(slurp(o + "/results.json"));
+  ASSERT_EQ(j["models"].size(), 3u);
+  const double factors[3] = {1, 4, 50};
+  double moving[3];
+  for (size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(j["models"][i]["model"], model());
+    EXPECT_EQ(j["models"][i]["output_threshold_scale"].get<double>(), factors[i]);
+    moving[i] = j["models"][i]["datasets"][0]["windows"][0]["moving_share"].get<double>();
+  }
+  EXPECT_GT(moving[0], 90.0);
+  EXPECT_GT(moving[1], 80.0);  // below a lone spike's peak: (nearly) the same labels
+  EXPECT_LE(moving[1], moving[0] + 1.0);
+  EXPECT_EQ(moving[2], 0.0);  // above any reachable potential: nothing
+  EXPECT_NE(out.find("pass_all.safetensors θ×4 "), std::string::npos) << out;
+  EXPECT_NE(slurp(o + "/results.md").find("output θ × 50"), std::string::npos);
+  EXPECT_NE(slurp(o + "/results.csv").find(",50\n"), std::string::npos);
+  EXPECT_TRUE(fs::exists(o + "/plots/operating_points_1.svg"));
+  EXPECT_NE(slurp(o + "/report.html").find("operating_points_1.svg"), std::string::npos);
+  for (const char* bad : {"0", "1,x", "1,1", "1,,2"}) {
+    EXPECT_EQ(
+        run_command(eval(std::string("--data ") + data() + " --output-thresholds " + bad), &out), 1)
+        << bad;
+    EXPECT_NE(out.find("--output-thresholds"), std::string::npos) << out;
+  }
 }
 
 TEST_F(EvalCli, BadInputStopsWithAClearMessage) {

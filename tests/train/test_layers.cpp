@@ -133,6 +133,16 @@ TEST(Loss, DistillMatchesItsFormulaAndGradient) {
       }
   EXPECT_NEAR(teacher_entropy(in, sure).item<double>(), h / n, 1e-10);
   EXPECT_THROW(distill_loss(out, in, q.narrow(2, 0, 2), o), std::exception);  // wrong grid
+  // Far on the wrong side (alpha 40, P = 0 against a sure teacher: z = -20, p = 2e-9) the loss
+  // is softplus(20) per pixel and its gradient alpha (p - q) ~ -alpha: not cut at a clamped p.
+  LossOptions steep = o;
+  steep.alpha = 40;
+  const torch::Tensor in1 = torch::ones({1, 1, 1, 1, 1}, torch::kDouble);
+  torch::Tensor silent = torch::zeros({1, 1, 1, 1, 1}, torch::kDouble).requires_grad_(true);
+  const torch::Tensor l = distill_loss(silent, in1, torch::ones({1, 1, 1}, torch::kDouble), steep);
+  l.backward();
+  EXPECT_NEAR(l.item<double>(), 20 + std::log1p(std::exp(-20.0)), 1e-12);
+  EXPECT_NEAR(silent.grad().item<double>(), -40 / (1 + std::exp(-20.0)), 1e-9);
 }
 
 // The potential readout: P = max over steps and channels of u / theta, p = sigmoid(alpha (P - 1))

@@ -7,6 +7,7 @@
 #include "core/eval/baseline_scorer.h"
 #include "core/eval/boxes.h"
 #include "core/eval/sequence_scorer.h"
+#include "core/model/output_threshold.h"
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
 #include "core/util/progress.h"
@@ -59,13 +60,21 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   if (paths.empty() && opt.baselines.empty())
     fail("spikems eval", "", "no model given (--model FILE)");
   if (opt.data.empty()) fail("spikems eval", "", "no data given (--data PATH)");
+  const std::vector<double> scales =
+      opt.output_thresholds.empty() ? std::vector<double>{1.0} : opt.output_thresholds;
   std::vector<ModelSpec> models;
+  std::vector<std::string> model_paths;
+  std::vector<double> model_scales;
   for (const auto& p : paths) {
     ModelSpec m = load_model(p);
     if (opt.iir && m.type == ModelType::SNN) m = with_iir_neurons(std::move(m), p);
     check_windows(opt.windows_us, time_step_us(m), p);
     if (!opt.kalman_us.empty()) check_windows(opt.kalman_us, time_step_us(m), p + " (--kalman)");
-    models.push_back(std::move(m));
+    for (double s : scales) {
+      models.push_back(s == 1.0 ? m : with_output_threshold(m, s, p));
+      model_paths.push_back(p);
+      model_scales.push_back(s);
+    }
   }
   if (!opt.baselines.empty()) check_windows(opt.windows_us, 1, "--windows");
 
@@ -113,7 +122,8 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   const size_t runs = models.size() + opt.baselines.size();
   std::vector<ModelResult> res(runs);
   for (size_t i = 0; i < models.size(); ++i) {
-    res[i].path = paths[i];
+    res[i].path = model_paths[i];
+    res[i].output_threshold = model_scales[i];
     res[i].name = models[i].name;
     res[i].time_step_ms = double(time_step_us(models[i])) / 1000.0;
     res[i].iir = opt.iir;

@@ -24,6 +24,9 @@ struct EvalOptions {
   std::vector<int64_t> windows_us = {20000, 100000};
   // Window lengths also scored through the Kalman filter (kalman_filter.h): "filtered" rows.
   std::vector<int64_t> kalman_us;
+  // Output-threshold factors (output_threshold.h): every model is scored once per factor, a
+  // row each; empty = {1}, the model as trained. Two or more trace a precision-recall curve.
+  std::vector<double> output_thresholds;
   int threads = 1;   // threads inside the network
   bool iir = false;  // run FIR layers as their exact IIR recursions
   bool gate_events =

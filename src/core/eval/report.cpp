@@ -86,6 +86,35 @@ PlotSeries iou_series(const std::string& label, const DatasetResult& d) {
   return s;
 }
 
+// The operating points of the runs of one model file on a dataset (one per output-threshold
+// factor, output_threshold.h), in factor order, from the first window length's event counts:
+// event precision against recall, or on a static scene the share labelled moving against the
+// factor. Fewer than two points: no series (a single point is no curve).
+PlotSeries operating_points(const EvalResults& r, const std::string& path, size_t d,
+                            bool static_scene) {
+  std::vector<std::pair<double, const WindowSummary*>> pts;
+  for (const auto& m : r.models)
+    if (m.path == path && d < m.datasets.size() && !m.datasets[d].windows.empty() &&
+        m.datasets[d].windows[0].has_events)
+      pts.push_back({m.output_threshold, &m.datasets[d].windows[0]});
+  std::sort(pts.begin(), pts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  PlotSeries s;
+  s.label = file_name(path);
+  for (const auto& [scale, w] : pts) {
+    const EventCounts& e = w->events;
+    if (static_scene) {
+      if (e.total() == 0) continue;
+      s.x.push_back(scale);
+      s.y.push_back(100 * e.moving_share());
+    } else if (e.has_recall() && e.has_precision()) {
+      s.x.push_back(100 * e.recall());
+      s.y.push_back(100 * e.precision());
+    }
+  }
+  if (s.x.size() < 2) s.x.clear(), s.y.clear();
+  return s;
+}
+
 }  // namespace
 
 std::string write_report(const EvalResults& r, const EvalExamples& ex, const std::string& dir) {
@@ -164,6 +193,44 @@ std::string write_report(const EvalResults& r, const EvalExamples& ex, const std
     const std::string bar_file = "plots/iou_per_sequence_" + std::to_string(d + 1) + ".svg";
     write_svg((root / bar_file).string(), svg_bar_plot(names, bars, bo));
     page.image(bar_file, "IoU per sequence (" + ms(shown_us) + " ms windows), " + data);
+  }
+
+  // Operating points: a curve per model file scored at several output-threshold factors.
+  std::vector<std::string> swept;
+  for (const auto& m : r.models)
+    if (m.output_threshold != 1 && std::find(swept.begin(), swept.end(), m.path) == swept.end())
+      swept.push_back(m.path);
+  for (size_t d = 0; d < datasets && !swept.empty(); ++d) {
+    std::vector<PlotSeries> curves;
+    for (const auto& p : swept) {
+      PlotSeries c = operating_points(r, p, d, r.static_scene);
+      if (!c.x.empty()) curves.push_back(std::move(c));
+    }
+    if (curves.empty()) continue;
+    const std::string data = r.models[0].datasets[d].data;
+    const std::string w = ms(r.windows_us.at(0));
+    PlotOptions po;
+    po.y_min = 0;
+    std::string caption;
+    if (r.static_scene) {
+      po.title = "Share labelled moving against the output threshold: " + file_name(data);
+      po.x_label = "output threshold factor (θ ×)";
+      po.y_label = "events labelled moving %";
+      caption = "Share of the events labelled moving at each output-threshold factor (" + w +
+                " ms windows), " + data;
+    } else {
+      po.title = "Event precision against recall: " + file_name(data);
+      po.x_label = "event recall %";
+      po.y_label = "event precision %";
+      po.y_max = 100;
+      caption =
+          "Event precision against recall, one point per output-threshold factor (the "
+          "factor rises to the left; " +
+          w + " ms windows), " + data;
+    }
+    const std::string file = "plots/operating_points_" + std::to_string(d + 1) + ".svg";
+    write_svg((root / file).string(), svg_line_plot(curves, po));
+    page.image(file, caption);
   }
 
   page.heading("Per sequence");

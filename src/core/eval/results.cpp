@@ -161,7 +161,7 @@ std::string csv_row(const std::string& level, const ModelResult& m, const Datase
     r += ",,,,";
   r += ",";
   if (w.has_events && e.total() > 0) r += fmt("%.4f", 100 * e.moving_share());
-  return r + "\n";
+  return r + "," + fmt("%g", m.output_threshold) + "\n";
 }
 
 // Display width of UTF-8 text (code points; the tables use ±, Δ and –).
@@ -267,6 +267,7 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
     jm["name"] = m.name;
     jm["time_step_ms"] = m.time_step_ms;
     jm["iir"] = m.iir;
+    jm["output_threshold_scale"] = m.output_threshold;
     nlohmann::ordered_json ds = nlohmann::ordered_json::array();
     for (const auto& d : m.datasets) {
       nlohmann::ordered_json jd;
@@ -300,7 +301,7 @@ std::string results_csv(const EvalResults& r) {
   std::string out =
       "level,model,data,split,sequence,window_ms,iou_mean,iou_std,detection_rate,windows,"
       "skipped_windows,sequences,filter,event_precision,event_recall,events_tp,events_fp,"
-      "events_fn,events_tn,moving_share\n";
+      "events_fn,events_tn,moving_share,output_threshold_scale\n";
   for (const auto& m : r.models)
     for (const auto& d : m.datasets) {
       for (const auto& w : d.windows) out += csv_row("dataset", m, d, "", w);
@@ -311,9 +312,10 @@ std::string results_csv(const EvalResults& r) {
 }
 
 std::string model_label(const EvalResults& r, const ModelResult& m) {
+  std::string name = file_name(m.path);
   for (const auto& o : r.models)
-    if (&o != &m && file_name(o.path) == file_name(m.path)) return m.path;
-  return file_name(m.path);
+    if (o.path != m.path && file_name(o.path) == file_name(m.path)) name = m.path;
+  return m.output_threshold == 1 ? name : name + " θ×" + fmt("%g", m.output_threshold);
 }
 
 TextTable summary_table(const EvalResults& r) {
@@ -361,7 +363,8 @@ std::string results_markdown(const EvalResults& r) {
   out += "- date: " + r.date + "\n";
   for (const auto& m : r.models)
     out += "- model: `" + m.path + "` (" + m.name + ", time step " + fmt("%g", m.time_step_ms) +
-           " ms" + (m.iir ? ", FIR layers run as IIR" : "") + ")\n";
+           " ms" + (m.iir ? ", FIR layers run as IIR" : "") +
+           (m.output_threshold != 1 ? ", output θ × " + fmt("%g", m.output_threshold) : "") + ")\n";
   if (r.max_seconds > 0) out += "- first " + fmt("%g", r.max_seconds) + " s of each sequence\n";
   if (r.gate_events)
     out +=

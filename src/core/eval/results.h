@@ -54,6 +54,8 @@ struct ModelResult {
   std::string path, name;
   double time_step_ms = 1;
   bool iir = false;  // FIR layers run as IIR recursions (--iir)
+  // The factor on the output layer's θ (EvalOptions::output_thresholds); 1 = as trained.
+  double output_threshold = 1;
   std::vector<DatasetResult> datasets;
 };
 
@@ -88,7 +90,8 @@ TextTable summary_table(const EvalResults& r);
 // One row per model, sequence and window length.
 TextTable sequence_table(const EvalResults& r);
 // A model's short name in tables and plots: its file name, or the path as given where two
-// models share a file name (runs/a/best.safetensors against runs/b/best.safetensors).
+// models share a file name (runs/a/best.safetensors against runs/b/best.safetensors); with
+// " θ×F" appended where its output threshold was scaled by F != 1.
 std::string model_label(const EvalResults& r, const ModelResult& m);
 
 // The summary table (one row per model, dataset and window), columns aligned.

@@ -99,9 +99,16 @@ torch::Tensor distill_loss(const torch::Tensor& out, const torch::Tensor& input,
   TORCH_CHECK(teacher_prob.dim() == 3 && teacher_prob.size(0) == out.size(1) &&
                   teacher_prob.size(1) == out.size(3) && teacher_prob.size(2) == out.size(4),
               "distillation: the teacher's probabilities must be [B, H, W] on the output's grid");
-  const torch::Tensor p =
-      torch::clamp(projection_probability(output_projection(out, o), o), 1e-6, 1 - 1e-6);
-  const torch::Tensor q = teacher_prob.detach().to(p.dtype());
+  const torch::Tensor P = output_projection(out, o);
+  const torch::Tensor q = teacher_prob.detach().to(P.dtype());
+  if (o.potential_readout || o.projection == LossOptions::Projection::Sigmoid) {
+    // From the logit z: -(q log s(z) + (1-q) log(1-s(z))) = q softplus(-z) + (1-q) softplus(z),
+    // exact at any z, so a pixel far on the wrong side keeps its gradient (a clamped p had none:
+    // with a steep alpha the potential readout saturates p within float precision).
+    const torch::Tensor z = o.alpha * (P - (o.potential_readout ? 1.0 : o.beta));
+    return mean_over_event_pixels(q * torch::softplus(-z) + (1 - q) * torch::softplus(z), input);
+  }
+  const torch::Tensor p = torch::clamp(projection_probability(P, o), 1e-6, 1 - 1e-6);
   const torch::Tensor bce = -(q * torch::log(p) + (1 - q) * torch::log1p(-p));
   return mean_over_event_pixels(bce, input);
 }

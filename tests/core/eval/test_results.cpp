@@ -76,10 +76,10 @@ TEST(EvalResults, DatasetRowsPoolEveryWindowOfEverySequence) {
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 7);
   EXPECT_NE(
       csv.find(
-          "dataset,models/m.safetensors,data/x,test,,20,50.0000,40.8248,66.6667,3,1,2,,,,,,,,\n"),
+          "dataset,models/m.safetensors,data/x,test,,20,50.0000,40.8248,66.6667,3,1,2,,,,,,,,,1\n"),
       std::string::npos)
       << csv;
-  EXPECT_NE(csv.find("dataset,models/m.safetensors,data/x,test,,100,,,,0,1,2,,,,,,,,\n"),
+  EXPECT_NE(csv.find("dataset,models/m.safetensors,data/x,test,,100,,,,0,1,2,,,,,,,,,1\n"),
             std::string::npos)
       << csv;
   EXPECT_NE(csv.find("sequence,models/m.safetensors,data/x,test,a.h5,20,75.0000"),

@@ -196,22 +196,7 @@ LabelledSequence moving_square() {
 
 // Two 3x3 convolutions (padding 1) with seeded random weights, mostly excitatory.
 ModelSpec random_model() {
-  ModelSpec m;
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<float> u(-0.1f, 0.35f);
-  for (auto [ci, co] : {std::pair{2, 4}, std::pair{4, 2}}) {
-    LayerSpec l;
-    l.in_channels = ci;
-    l.out_channels = co;
-    l.kernel = 3;
-    l.stride = 1;
-    l.padding = 1;
-    l.weight.resize(size_t(l.weight_count()));
-    for (auto& w : l.weight) w = u(rng);
-    m.layers.push_back(l);
-  }
-  fill_fir_kernels(m);
-  return m;
+  return test::random_conv_model(3, -0.1f, 0.35f);
 }
 
 TEST(SequenceScorer, SeveralWindowLengthsFromOneRunEqualOneRunEach) {

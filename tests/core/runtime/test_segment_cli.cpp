@@ -200,6 +200,34 @@ TEST(SegmentCli, IirOptionGivesTheSameLabelsHereAndRefusesOddKernels) {
   EXPECT_FALSE(std::filesystem::exists(d + "/odd.txt"));
 }
 
+// --output-threshold F multiplies the output layer's θ: each OFF event's potential peaks at
+// 1.0 (weight 1) against θ = 0.22, so every OFF event stays labelled at F = 4 and none at 5.
+TEST(SegmentCli, OutputThresholdMovesTheOperatingPoint) {
+  std::string d = scratch_dir();
+  std::string model = write_pass_off_model(d), ev = write_events(d);
+  std::string out;
+  auto moving = [&](const std::string& flag) {
+    const std::string f = d + "/f" + std::to_string(flag.size()) + ".txt";
+    EXPECT_EQ(run_command(spikems_binary() + " segment --quiet --model " + model + " --input " +
+                              ev + " --out " + f + " " + flag,
+                          &out),
+              0)
+        << out;
+    long n = 0;
+    for (const auto& r : read_rows(f)) n += r.back() != 0;
+    return n;
+  };
+  EXPECT_EQ(moving(""), 240);
+  EXPECT_EQ(moving("--output-threshold 4"), 240);
+  EXPECT_EQ(moving("--output-threshold 5.0"), 0);
+  EXPECT_NE(run_command(spikems_binary() + " segment --quiet --model " + model + " --input " + ev +
+                            " --out " + d + "/bad.txt --output-threshold 0",
+                        &out),
+            0);
+  EXPECT_NE(out.find("--output-threshold"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(d + "/bad.txt"));
+}
+
 TEST(SegmentCli, LiveStdinToStdout) {
   std::string d = scratch_dir();
   std::string model = write_pass_off_model(d);
