@@ -346,13 +346,17 @@ TEST_F(EvalCli, StaticSceneScoresTheShareOfEventsCalledMoving) {
 TEST_F(EvalCli, OutputThresholdsGiveARowPerFactorAndAnOperatingPointPlot) {
   const std::string o = dir_ + "/out_thresholds";
   std::string out;
-  ASSERT_EQ(run_command(eval("--data " + data() +
-                             " --split all --windows 20 --output-thresholds 1,4,50 --out " + o),
-                        &out),
-            0)
+  ASSERT_EQ(
+      run_command(
+          eval("--data " + data() +
+               " --split all --windows 20 --output-thresholds 1,4,50 --baseline all-events --out " +
+               o),
+          &out),
+      0)
       << out;
   const auto j = nlohmann::json::parse(slurp(o + "/results.json"));
-  ASSERT_EQ(j["models"].size(), 3u);
+  ASSERT_EQ(j["models"].size(), 4u);  // three factors, then the baseline
+  EXPECT_EQ(j["models"][3]["output_threshold_scale"].get<double>(), 1.0);
   const double factors[3] = {1, 4, 50};
   double moving[3];
   for (size_t i = 0; i < 3; ++i) {
@@ -367,7 +371,11 @@ TEST_F(EvalCli, OutputThresholdsGiveARowPerFactorAndAnOperatingPointPlot) {
   EXPECT_NE(out.find("pass_all.safetensors θ×4 "), std::string::npos) << out;
   EXPECT_NE(slurp(o + "/results.md").find("output θ × 50"), std::string::npos);
   EXPECT_NE(slurp(o + "/results.csv").find(",50\n"), std::string::npos);
-  EXPECT_TRUE(fs::exists(o + "/plots/operating_points_1.svg"));
+  // The plot: the model's curve (factors 1 and 4; nothing is labelled at 50, so no precision)
+  // and the baseline's point, named once each.
+  const std::string svg = slurp(o + "/plots/operating_points_1.svg");
+  EXPECT_NE(svg.find(">pass_all.safetensors<"), std::string::npos) << svg;
+  EXPECT_NE(svg.find(">every event moving<"), std::string::npos) << svg;
   EXPECT_NE(slurp(o + "/report.html").find("operating_points_1.svg"), std::string::npos);
   for (const char* bad : {"0", "1,x", "1,1", "1,,2"}) {
     EXPECT_EQ(

@@ -132,6 +132,26 @@ TEST(Loss, DistillMatchesItsFormulaAndGradient) {
         n += 1;
       }
   EXPECT_NEAR(teacher_entropy(in, sure).item<double>(), h / n, 1e-10);
+  // The best constant student: p = the teacher's mean over the event pixels, by hand; its
+  // distillation loss is that mean's entropy, and no other constant does better.
+  double qm = 0;
+  for (int64_t b = 0; b < B; ++b)
+    for (int64_t y = 0; y < H; ++y)
+      for (int64_t x = 0; x < W; ++x)
+        if (in.select(1, b).select(2, y).select(2, x).sum().item<double>() > 0)
+          qm += q[b][y][x].item<double>() / den;
+  const double hm = -(qm * std::log(qm) + (1 - qm) * std::log(1 - qm));
+  EXPECT_NEAR(teacher_mean_entropy(in, q).item<double>(), hm, 1e-10);
+  LossOptions pot = o;
+  pot.potential_readout = true;
+  pot.readout_theta = 1;
+  auto constant_student = [&](double p) {  // P with sigmoid(alpha (P - 1)) = p at every step
+    const double P = 1 + std::log(p / (1 - p)) / pot.alpha;
+    return distill_loss(torch::full({T, B, 1, H, W}, P, torch::kDouble), in, q, pot).item<double>();
+  };
+  EXPECT_NEAR(constant_student(qm), hm, 1e-9);
+  EXPECT_GT(constant_student(qm + 0.05), hm);
+  EXPECT_GT(constant_student(qm - 0.05), hm);
   EXPECT_THROW(distill_loss(out, in, q.narrow(2, 0, 2), o), std::exception);  // wrong grid
   // Far on the wrong side (alpha 40, P = 0 against a sure teacher: z = -20, p = 2e-9) the loss
   // is softplus(20) per pixel and its gradient alpha (p - q) ~ -alpha: not cut at a clamped p.

@@ -509,6 +509,11 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
     EXPECT_GE(floor, 0.0);
     EXPECT_LE(floor, std::log(2.0) + 1e-9);
     EXPECT_GE(line["distill"].get<double>(), floor - 1e-6) << "step " << line["step"];
+    // The best constant student's score: the entropy of the mean is at least the mean entropy
+    // (concavity), and at most ln 2.
+    const double constant = line["distill_const"].get<double>();
+    EXPECT_GE(constant, floor - 1e-9) << "step " << line["step"];
+    EXPECT_LE(constant, std::log(2.0) + 1e-9);
   }
   EXPECT_GT(first, 0.0);
   EXPECT_LT(last, 0.9 * first) << "distillation loss of steps 1-10 vs 91-100";

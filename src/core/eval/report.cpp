@@ -99,7 +99,7 @@ PlotSeries operating_points(const EvalResults& r, const std::string& path, size_
       pts.push_back({m.output_threshold, &m.datasets[d].windows[0]});
   std::sort(pts.begin(), pts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   PlotSeries s;
-  s.label = file_name(path);
+  s.label = model_file_label(r, path);
   for (const auto& [scale, w] : pts) {
     const EventCounts& e = w->events;
     if (static_scene) {
@@ -207,10 +207,22 @@ std::string write_report(const EvalResults& r, const EvalExamples& ex, const std
       if (!c.x.empty()) curves.push_back(std::move(c));
     }
     if (curves.empty()) continue;
+    // The all-events baseline as a reference point: recall 100 %, precision = the base rate.
+    for (const auto& m : r.models)
+      if (!r.static_scene && m.path.rfind("baseline:", 0) == 0 && d < m.datasets.size() &&
+          !m.datasets[d].windows.empty() && m.datasets[d].windows[0].has_events &&
+          m.datasets[d].windows[0].events.has_precision()) {
+        PlotSeries b;
+        b.label = m.name;
+        b.x = {100 * m.datasets[d].windows[0].events.recall()};
+        b.y = {100 * m.datasets[d].windows[0].events.precision()};
+        curves.push_back(std::move(b));
+      }
     const std::string data = r.models[0].datasets[d].data;
     const std::string w = ms(r.windows_us.at(0));
     PlotOptions po;
     po.y_min = 0;
+    po.width = 760;
     std::string caption;
     if (r.static_scene) {
       po.title = "Share labelled moving against the output threshold: " + file_name(data);

@@ -311,10 +311,14 @@ std::string results_csv(const EvalResults& r) {
   return out;
 }
 
-std::string model_label(const EvalResults& r, const ModelResult& m) {
-  std::string name = file_name(m.path);
+std::string model_file_label(const EvalResults& r, const std::string& path) {
   for (const auto& o : r.models)
-    if (o.path != m.path && file_name(o.path) == file_name(m.path)) name = m.path;
+    if (o.path != path && file_name(o.path) == file_name(path)) return path;
+  return file_name(path);
+}
+
+std::string model_label(const EvalResults& r, const ModelResult& m) {
+  const std::string name = model_file_label(r, m.path);
   return m.output_threshold == 1 ? name : name + " θ×" + fmt("%g", m.output_threshold);
 }
 

@@ -93,6 +93,8 @@ TextTable sequence_table(const EvalResults& r);
 // models share a file name (runs/a/best.safetensors against runs/b/best.safetensors); with
 // " θ×F" appended where its output threshold was scaled by F != 1.
 std::string model_label(const EvalResults& r, const ModelResult& m);
+// The same name without the factor: the model file's short name among r's models.
+std::string model_file_label(const EvalResults& r, const std::string& path);
 
 // The summary table (one row per model, dataset and window), columns aligned.
 std::string results_table(const EvalResults& r);

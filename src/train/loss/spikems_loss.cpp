@@ -119,6 +119,12 @@ torch::Tensor teacher_entropy(const torch::Tensor& input, const torch::Tensor& t
   return mean_over_event_pixels(-(torch::xlogy(q, q) + torch::xlogy(1 - q, 1 - q)), input);
 }
 
+torch::Tensor teacher_mean_entropy(const torch::Tensor& input, const torch::Tensor& teacher_prob) {
+  torch::NoGradGuard ng;
+  const torch::Tensor m = mean_over_event_pixels(teacher_prob.detach(), input);
+  return -(torch::xlogy(m, m) + torch::xlogy(1 - m, 1 - m));
+}
+
 torch::Tensor van_rossum_loss(const torch::Tensor& out, const torch::Tensor& target,
                               const LossOptions& o) {
   TORCH_CHECK(!o.potential_readout, "loss: L_spike compares spike trains, not a readout potential");

@@ -77,12 +77,18 @@ torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input
 // student's p = projection_probability(P) is pulled to it by the binary cross-entropy
 // -(q log p + (1 - q) log(1 - p)) averaged over the pixels with input events (where the
 // teacher's answer means something). Unlike the mask it says at every ego-motion event how
-// sure a net that discriminates is that it is background. p is clamped to [1e-6, 1 - 1e-6].
+// sure a net that discriminates is that it is background. Computed from the logit (exact at
+// any potential) for the sigmoid projections; the exponential one clamps p to [1e-6, 1 - 1e-6].
 torch::Tensor distill_loss(const torch::Tensor& out, const torch::Tensor& input,
                            const torch::Tensor& teacher_prob, const LossOptions& o);
 // The distillation's floor: the teacher's own mean binary entropy -(q log q + (1 - q) log(1 - q))
 // (0 log 0 = 0) over the pixels with input events: distill_loss of a student that matched it.
 torch::Tensor teacher_entropy(const torch::Tensor& input, const torch::Tensor& teacher_prob);
+// The distillation's ceiling for a student that ignores its input: the binary entropy of the
+// teacher's mean q over the pixels with input events, distill_loss of the constant p = mean q
+// (the best constant). A student between this and teacher_entropy has learnt part of the
+// teacher's judgement; at it, none.
+torch::Tensor teacher_mean_entropy(const torch::Tensor& input, const torch::Tensor& teacher_prob);
 // target = input masked by the foreground mask, [T, B, C, H, W].
 torch::Tensor foreground_target(const torch::Tensor& input, const torch::Tensor& fg_mask);
 LossTerms spikems_loss(const torch::Tensor& out, const torch::Tensor& input,

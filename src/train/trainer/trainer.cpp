@@ -92,6 +92,8 @@ struct StepOutput {
   // The distillation's floor: the teacher's own mean binary entropy over the pixels with
   // events, what `distill` would be for a student that matched it exactly.
   torch::Tensor distill_floor;
+  // Its ceiling: the best constant student's score, the binary entropy of the teacher's mean.
+  torch::Tensor distill_const;
   std::vector<double> rates;
   torch::Tensor out_window, fg_window, in_window;
 };
@@ -142,7 +144,7 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
       o.activity = o.activity + c.floor_weight * torch::relu(rate / ceiling - 1).pow(2);
   }
   o.distill = zero;
-  o.distill_floor = zero;
+  o.distill_floor = o.distill_const = zero;
   if (teacher) {      // set only when loss.teacher_weight > 0
     torch::Tensor q;  // the teacher's probability per pixel, [B, H, W]
     {
@@ -152,6 +154,7 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
     }
     o.distill = distill_loss(scored, in, q, lo);
     o.distill_floor = teacher_entropy(in, q);
+    o.distill_const = teacher_mean_entropy(in, q);
   }
   o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity + c.teacher_weight * o.distill;
   o.out_window = out;
@@ -177,7 +180,7 @@ StepOutput ann_forward_loss(Ann2dNetwork& net, const BatchTensors& bt, const Tra
   const auto zero = torch::zeros({}, logits.options());
   o.bce = c.loss == "iou" ? zero : l.bce;
   o.iou = l.iou;
-  o.spike = o.activity = o.distill = o.distill_floor = zero;
+  o.spike = o.activity = o.distill = o.distill_floor = o.distill_const = zero;
   o.total = o.bce + iou_w * o.iou;
   for (const auto& a : layers)
     o.rates.push_back((a.detach() > 0).to(torch::kFloat).mean().item<double>());
@@ -581,7 +584,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   double ema_loss = -1, ema_iou = -1;
   WindowScores train_ws;
   double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_soft_iou = 0, sum_act = 0, sum_distill = 0;
-  double sum_distill_floor = 0;
+  double sum_distill_floor = 0, sum_distill_const = 0;
   double sum_comm = 0;  // seconds in collectives, waiting for the slowest rank included
   std::vector<double> sum_rates(net.size(), 0.0);
   std::vector<double> sum_grad;  // per parameter tensor, summed over the log interval
@@ -615,11 +618,11 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     StepOutput o = net.step(bt, c, lo, ts);
     // This rank's numbers for the log, gathered from every rank before the backward pass so
     // that a non-finite loss anywhere stops every rank before any weight changes:
-    // [loss terms x7, rates, interrupted, then (intersection, predicted, truth) per window].
-    std::vector<double> mine = {o.total.item<double>(),        o.bce.item<double>(),
-                                o.spike.item<double>(),        o.iou.item<double>(),
-                                o.activity.item<double>(),     o.distill.item<double>(),
-                                o.distill_floor.item<double>()};
+    // [loss terms x8, rates, interrupted, then (intersection, predicted, truth) per window].
+    std::vector<double> mine = {o.total.item<double>(),         o.bce.item<double>(),
+                                o.spike.item<double>(),         o.iou.item<double>(),
+                                o.activity.item<double>(),      o.distill.item<double>(),
+                                o.distill_floor.item<double>(), o.distill_const.item<double>()};
     mine.insert(mine.end(), o.rates.begin(), o.rates.end());
     mine.push_back(world > 1 && (interrupted() || out_of_time()) ? 1.0 : 0.0);
     for (const auto& m :
@@ -629,7 +632,8 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     const std::vector<double> all = dist.all_gather(mine);
     double comm_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_comm).count();
-    const size_t per_rank = mine.size(), head = 7 + n_rates;
+    constexpr size_t kTerms = 8;
+    const size_t per_rank = mine.size(), head = kTerms + n_rates;
     // Each rank's loss is the mean over its share; the run's loss is the mean over the ranks
     // (the same number a single process computes for losses that are means over samples).
     std::vector<double> terms(head, 0.0);
@@ -687,7 +691,8 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     sum_act += terms[4];
     sum_distill += terms[5];
     sum_distill_floor += terms[6];
-    for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += terms[7 + k];
+    sum_distill_const += terms[7];
+    for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += terms[kTerms + k];
     ++in_sum;
     st.wall_seconds =
         wall_before +
@@ -722,11 +727,12 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
       if (c.teacher_weight > 0) {
         line["distill"] = sum_distill / in_sum;
         line["distill_floor"] = sum_distill_floor / in_sum;
+        line["distill_const"] = sum_distill_const / in_sum;
       }
       log_line(line);
       res.wall_seconds = st.wall_seconds;
       sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = sum_distill = sum_comm = 0;
-      sum_distill_floor = 0;
+      sum_distill_floor = sum_distill_const = 0;
       std::fill(sum_rates.begin(), sum_rates.end(), 0.0);
       std::fill(sum_grad.begin(), sum_grad.end(), 0.0);
       in_sum = 0;
