@@ -341,6 +341,8 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(msg({"loss.kind=hinge"}).find("loss.kind: \"hinge\" is not one of bce, spike, both"),
             std::string::npos);
   EXPECT_NE(msg({"model.init_rates=[0.1]"}).find("model.init_rates"), std::string::npos);
+  EXPECT_NE(msg({"sample.speed_max=0.5"}).find("sample.speed_max: must be in [1, 8]"),
+            std::string::npos);
   EXPECT_NE(msg({"loss.rate_ceilings=[0.1]"})
                 .find("loss.rate_ceilings: needs one ceiling per hidden layer (5)"),
             std::string::npos);

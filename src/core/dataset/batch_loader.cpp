@@ -79,6 +79,7 @@ std::vector<Sample> validation_samples(const std::vector<const LabelledSequence*
                                        const SampleOptions& opt, int count, uint64_t seed) {
   SampleOptions o = opt;
   o.flip_x = o.flip_y = o.polarity_swap = o.drop_max = o.threshold_jitter = o.noise_hz_max = 0;
+  o.speed_max = 1;
   const std::vector<double> weights(seqs.size(), 1.0);
   std::vector<Sample> out;
   for (int i = 0; i < count; ++i) {

@@ -45,13 +45,17 @@ Sample extract_sample(const LabelledSequence& seq, const SampleSpec& s, const Sa
   out.W = s.crop_w;
   out.centred = s.centred;
   if (out.T <= 0 || o.step_us <= 0) fail(seq.name, "", "sample: window and step must be positive");
+  if (!(s.speed > 0) || !std::isfinite(s.speed))
+    fail(seq.name, "", "sample: the playback speed must be positive");
   if (s.crop_w <= 0 || s.crop_h <= 0 || s.crop_x < 0 || s.crop_y < 0 ||
       s.crop_x + s.crop_w > ev.sensor.width || s.crop_y + s.crop_h > ev.sensor.height)
     fail(seq.name, "", "sample: the crop does not fit the sensor");
   const size_t plane = size_t(out.H) * size_t(out.W);
   out.input.assign(size_t(out.T) * 2 * plane, 0);
   out.fg.assign(size_t(out.T) * plane, 0);
-  const int64_t t_end = s.t0 + int64_t(out.T) * o.step_us;
+  // At speed v a step spans v * step_us of the recording.
+  const double src_step = double(o.step_us) * s.speed;
+  const int64_t t_end = s.t0 + int64_t(std::ceil(double(out.T) * src_step));
   auto [b, e] = ev.time_range(s.t0, t_end);
   const bool labelled = ev.has_labels();
   for (size_t i = b; i < e; ++i) {
@@ -62,7 +66,8 @@ Sample extract_sample(const LabelledSequence& seq, const SampleSpec& s, const Sa
     if (s.flip_x) cx = out.W - 1 - cx;
     if (s.flip_y) cy = out.H - 1 - cy;
     if (s.swap_polarity) p ^= 1;
-    const int t = int((ev.t[i] - s.t0) / o.step_us);
+    const int t = s.speed == 1 ? int((ev.t[i] - s.t0) / o.step_us)
+                               : std::min(out.T - 1, int(double(ev.t[i] - s.t0) / src_step));
     out.input[out.at(t, p, cy, cx)] = 1;
     if (labelled && ev.label[i] != 0) out.fg[size_t(t) * plane + size_t(cy) * out.W + cx] = 1;
   }
@@ -119,8 +124,13 @@ SampleSpec draw_sample(const std::vector<const LabelledSequence*>& seqs,
          "the crop (" + std::to_string(o.crop) + " px) is larger than the sensor (" +
              std::to_string(sensor.width) + "x" + std::to_string(sensor.height) +
              "): lower `crop` in the config");
-  const int64_t span = int64_t(sample_steps(o)) * o.step_us;
-  const int64_t warm = int64_t(warmup_steps(o)) * o.step_us;
+  // The playback speed first (drawn only when on, so that runs without it draw as before):
+  // the sample then covers speed times the steps' span of the recording.
+  if (!(o.speed_max >= 1)) fail(seq.name, "", "sample: speed_max must be at least 1");
+  s.speed =
+      o.speed_max > 1 ? std::exp(uniform(rng, -std::log(o.speed_max), std::log(o.speed_max))) : 1.0;
+  const int64_t span = int64_t(std::ceil(double(sample_steps(o)) * double(o.step_us) * s.speed));
+  const int64_t warm = int64_t(double(warmup_steps(o)) * double(o.step_us) * s.speed);
   const int64_t t_lo = ev.t_first(), t_hi = std::max(t_lo, ev.t_last() - span);
   const bool want_centred = uniform(rng, 0, 1) < o.centred_fraction && ev.has_labels();
   bool placed = false;

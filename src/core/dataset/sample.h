@@ -38,6 +38,11 @@ struct SampleOptions {
   // an event survives with probability 1/s (a higher threshold fires 1/s as often).
   double threshold_jitter = 0.3;
   double noise_hz_max = 2.0;  // added background noise events, U(0, max) Hz per pixel
+  // Playback speed: per sample a factor v, log-uniform in [1/speed_max, speed_max], by which the
+  // recording is sped up (the sample's steps cover v times as much of it). Camera and objects
+  // speed up together, so their relative motion is kept while event rates change: the network
+  // cannot take a high local event rate for object motion. 1: off.
+  double speed_max = 1.0;
 };
 
 struct Sample {
@@ -56,11 +61,13 @@ struct SampleSpec {
   bool flip_x = false, flip_y = false, swap_polarity = false;
   double keep[2] = {1, 1};  // per polarity (OFF, ON): probability an event is kept
   double noise_hz = 0;
+  double speed = 1;   // playback speed: step k holds the recording's [t0 + k v step, + v step)
   uint64_t seed = 0;  // for the event drop and noise draws
   bool centred = false;
 };
 
-// Cuts the sample `s` describes. Throws Error when the crop leaves the sensor or T = 0.
+// Cuts the sample `s` describes. Throws Error when the crop leaves the sensor, T = 0 or the
+// speed is not positive.
 Sample extract_sample(const LabelledSequence& seq, const SampleSpec& s, const SampleOptions& o);
 
 // Draws a sample spec: a sequence (by `weights`, one per sequence), a time, a crop (centred on

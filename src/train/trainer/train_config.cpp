@@ -255,6 +255,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("sample", "drop_max", s.drop_max);
   b.bind("sample", "threshold_jitter", s.threshold_jitter);
   b.bind("sample", "noise_hz_max", s.noise_hz_max);
+  b.bind("sample", "speed_max", s.speed_max);
   b.bind("loss", "kind", c.loss);
   b.bind("loss", "lambda", c.lambda);
   b.bind("loss", "iou_weight", c.iou_weight);
@@ -331,6 +332,8 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
     if (v < 0 || v > 1) b.bad("sample", k, "must lie in [0, 1]");
   if (s.threshold_jitter < 0) b.bad("sample", "threshold_jitter", "must not be negative");
   if (s.noise_hz_max < 0) b.bad("sample", "noise_hz_max", "must not be negative");
+  if (!(s.speed_max >= 1 && s.speed_max <= 8))
+    b.bad("sample", "speed_max", "must be in [1, 8] (1: no playback-speed augmentation)");
   one_of(b, "loss", "kind", c.loss, {"bce", "spike", "both", "iou"});
   one_of(b, "model", "readout", c.readout, {"spikes", "potential"});
   if (c.readout == "potential" && c.type != "snn")

@@ -149,6 +149,85 @@ TEST(Sample, CentredDrawsContainTheObjectAndAreDeterministic) {
   EXPECT_FALSE(draw_sample(seqs, {1.0}, o, r).centred);
 }
 
+// At playback speed v each step holds v steps' worth of the recording: an event at t falls in
+// step floor((t - t0) / (v step)).
+TEST(Sample, PlaybackSpeedMapsTheRecordingOntoTheSteps) {
+  const LabelledSequence seq = synthetic();
+  SampleOptions o = plain();
+  SampleSpec s;
+  s.t0 = 0;
+  s.crop_x = s.crop_y = 0;
+  s.crop_w = 100;
+  s.crop_h = 80;
+  for (double v : {2.0, 0.5}) {
+    s.speed = v;
+    const Sample x = extract_sample(seq, s, o);
+    ASSERT_EQ(x.T, 15);
+    size_t bg = 0, fg = 0;
+    for (int ms = 0; ms < 50; ++ms) {
+      const int64_t tb = ms * 1000 + 100, to = ms * 1000 + 200;
+      const bool in = double(to) < 15 * 1000 * v;  // both events of this ms in the sample
+      if (!in) continue;
+      const int stb = int(double(tb) / (1000 * v)), sto = int(double(to) / (1000 * v));
+      EXPECT_EQ(x.input[x.at(stb, 1, 10, ms % 100)], 1) << "v " << v << " ms " << ms;
+      EXPECT_EQ(x.input[x.at(sto, ms % 2, 40, 50 + ms / 2)], 1) << "v " << v << " ms " << ms;
+      EXPECT_EQ(x.fg[(size_t(sto) * 80 + 40) * 100 + size_t(50 + ms / 2)], 1);
+      ++bg;
+      ++fg;
+    }
+    size_t ones = 0, fgs = 0;
+    for (auto b : x.input) ones += b;
+    for (auto b : x.fg) fgs += b;
+    EXPECT_EQ(bg, v == 2 ? 30u : 8u);  // 30 ms of the recording, or 7.5 ms
+    // Every event its own input cell (the object's two events of a 2 ms step differ in
+    // polarity); at 2x the object's pixel 50 + ms / 2 is one foreground cell per step.
+    EXPECT_EQ(ones, 2 * bg);
+    EXPECT_EQ(fgs, v == 2 ? 15u : fg);
+  }
+  s.speed = 0;
+  EXPECT_THROW(extract_sample(seq, s, o), Error);
+}
+
+TEST(Sample, PlaybackSpeedsAreLogUniformAndDrawnOnlyWhenOn) {
+  const LabelledSequence seq = synthetic();
+  std::vector<const LabelledSequence*> seqs{&seq};
+  SampleOptions o = plain();
+  o.centred_fraction = 1;
+  o.jitter = 4;
+  o.min_fg_pixels = 3;
+  double log_sum = 0;
+  int faster = 0;
+  const int n = 400;
+  o.speed_max = 2;
+  for (int i = 0; i < n; ++i) {
+    std::mt19937_64 r(mix_seed(3, 1, uint64_t(i)));
+    const SampleSpec a = draw_sample(seqs, {1.0}, o, r);
+    ASSERT_GE(a.speed, 0.5);
+    ASSERT_LE(a.speed, 2.0);
+    log_sum += std::log(a.speed);
+    faster += a.speed > 1;
+    // Placed on the recording's time scale: the centred window still holds the object, and
+    // the sample ends inside the recording.
+    const Sample x = extract_sample(seq, a, o);
+    size_t fg = 0;
+    for (int t = x.warmup_steps; t < x.T; ++t)
+      for (int p = 0; p < x.H * x.W; ++p) fg += x.fg[size_t(t) * x.H * x.W + p];
+    if (a.centred) EXPECT_GE(fg, 3u) << "speed " << a.speed;
+  }
+  // log v ~ U(-ln 2, ln 2): mean 0, sd ln 2 / sqrt 3 per draw.
+  EXPECT_NEAR(log_sum / n, 0.0, 4 * std::log(2.0) / std::sqrt(3.0 * n));
+  EXPECT_NEAR(double(faster) / n, 0.5, 4 * 0.5 / std::sqrt(double(n)));
+  // Off (1): every speed is 1.
+  o.speed_max = 1;
+  for (int i = 0; i < 20; ++i) {
+    std::mt19937_64 r(mix_seed(3, 1, uint64_t(i)));
+    EXPECT_EQ(draw_sample(seqs, {1.0}, o, r).speed, 1.0);
+  }
+  o.speed_max = 0.5;
+  std::mt19937_64 r(1);
+  EXPECT_THROW(draw_sample(seqs, {1.0}, o, r), Error);
+}
+
 TEST(Sample, BadCropIsAnError) {
   const LabelledSequence seq = synthetic();
   SampleSpec s;
