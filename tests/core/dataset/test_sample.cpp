@@ -49,6 +49,23 @@ SampleSpec object_crop() {
   return s;
 }
 
+// Every draw centred on the object, with a small jitter and a 3-pixel filter.
+SampleOptions centred_options() {
+  SampleOptions o = plain();
+  o.centred_fraction = 1;
+  o.jitter = 4;
+  o.min_fg_pixels = 3;
+  return o;
+}
+
+// Foreground cells of the window's steps (the warm-up left out).
+size_t window_foreground(const Sample& x) {
+  size_t fg = 0;
+  for (int t = x.warmup_steps; t < x.T; ++t)
+    for (int p = 0; p < x.H * x.W; ++p) fg += x.fg[size_t(t) * x.H * x.W + p];
+  return fg;
+}
+
 TEST(Sample, BinsEventsAndForegroundIntoTheCrop) {
   const LabelledSequence seq = synthetic();
   SampleOptions o = plain();
@@ -125,10 +142,7 @@ TEST(Sample, DropKeepsTheExpectedShareAndNoiseAddsBackgroundOnly) {
 
 TEST(Sample, CentredDrawsContainTheObjectAndAreDeterministic) {
   const LabelledSequence seq = synthetic();
-  SampleOptions o = plain();
-  o.centred_fraction = 1;
-  o.jitter = 4;
-  o.min_fg_pixels = 3;
+  SampleOptions o = centred_options();
   std::vector<const LabelledSequence*> seqs{&seq};
   for (int i = 0; i < 20; ++i) {
     std::mt19937_64 r1(mix_seed(5, 9, uint64_t(i))), r2(mix_seed(5, 9, uint64_t(i)));
@@ -137,11 +151,7 @@ TEST(Sample, CentredDrawsContainTheObjectAndAreDeterministic) {
     EXPECT_EQ(a.crop_x, b.crop_x);
     EXPECT_EQ(a.seed, b.seed);
     ASSERT_TRUE(a.centred);
-    Sample x = extract_sample(seq, a, o);
-    size_t fg = 0;
-    for (int t = x.warmup_steps; t < x.T; ++t)
-      for (int p = 0; p < x.H * x.W; ++p) fg += x.fg[size_t(t) * x.H * x.W + p];
-    EXPECT_GE(fg, 3u);
+    EXPECT_GE(window_foreground(extract_sample(seq, a, o)), 3u);
   }
   // A filter nothing can pass falls back to a random crop.
   o.min_fg_pixels = 1000;
@@ -191,10 +201,7 @@ TEST(Sample, PlaybackSpeedMapsTheRecordingOntoTheSteps) {
 TEST(Sample, PlaybackSpeedsAreLogUniformAndDrawnOnlyWhenOn) {
   const LabelledSequence seq = synthetic();
   std::vector<const LabelledSequence*> seqs{&seq};
-  SampleOptions o = plain();
-  o.centred_fraction = 1;
-  o.jitter = 4;
-  o.min_fg_pixels = 3;
+  SampleOptions o = centred_options();
   double log_sum = 0;
   int faster = 0;
   const int n = 400;
@@ -208,11 +215,7 @@ TEST(Sample, PlaybackSpeedsAreLogUniformAndDrawnOnlyWhenOn) {
     faster += a.speed > 1;
     // Placed on the recording's time scale: the centred window still holds the object, and
     // the sample ends inside the recording.
-    const Sample x = extract_sample(seq, a, o);
-    size_t fg = 0;
-    for (int t = x.warmup_steps; t < x.T; ++t)
-      for (int p = 0; p < x.H * x.W; ++p) fg += x.fg[size_t(t) * x.H * x.W + p];
-    if (a.centred) EXPECT_GE(fg, 3u) << "speed " << a.speed;
+    if (a.centred) EXPECT_GE(window_foreground(extract_sample(seq, a, o)), 3u) << a.speed;
   }
   // log v ~ U(-ln 2, ln 2): mean 0, sd ln 2 / sqrt 3 per draw.
   EXPECT_NEAR(log_sum / n, 0.0, 4 * std::log(2.0) / std::sqrt(3.0 * n));
