@@ -1,0 +1,97 @@
+// `spikems calibrate`: choose a model's output threshold on labelled validation data and write
+// the model with it (core/eval/calibration.h). Parses the options and calls the core.
+#include <cstdio>
+#include <filesystem>
+
+#include "cli/command.h"
+#include "core/eval/calibration.h"
+#include "core/eval/window_list.h"
+#include "core/model/output_threshold.h"
+#include "core/util/error.h"
+#include "core/util/interrupt.h"
+
+namespace {
+
+using namespace spikems;
+namespace fs = std::filesystem;
+
+struct Args {
+  std::string model, out, split = "val", factors, window = "20", criterion = "event-iou";
+  std::vector<std::string> data;
+  double max_seconds = 0;
+  int threads = 1;
+  bool quiet = false;
+};
+
+void run(const Args& a) {
+  install_interrupt_flag();
+  CalibrationOptions o;
+  o.model = a.model;
+  o.data = a.data;
+  if (a.split != "train" && a.split != "val" && a.split != "test" && a.split != "all")
+    fail("--split", "", "'" + a.split + "' is not a split: use train, val, test or all");
+  o.split = a.split;
+  if (!a.factors.empty()) o.factors = parse_threshold_scales(a.factors, "--factors");
+  const std::vector<int64_t> w = parse_window_list_ms(a.window);
+  if (w.size() != 1) fail("--window", "", "give one window length (ms), e.g. 20");
+  o.window_us = w[0];
+  o.criterion = a.criterion;
+  if (a.max_seconds < 0) fail("--max-seconds", "", "must be positive");
+  o.max_seconds = a.max_seconds;
+  o.threads = a.threads;
+  o.progress = !a.quiet;
+  o.command_line = cli::invoked_command();
+  std::error_code ec;
+  if (fs::equivalent(a.model, a.out, ec))
+    fail("--out " + a.out, "", "is the model itself: write the calibrated model to a new file");
+  const CalibrationResult r = calibrate(o);
+  save_model(a.out, calibrated_model(o, r));
+  std::fputs(calibration_table(o, r).c_str(), stdout);
+  std::fflush(stdout);
+  if (!a.quiet)
+    std::fprintf(stderr, "wrote %s: output threshold x %g (%s %.1f %%)\n", a.out.c_str(),
+                 r.points[r.best].factor, o.criterion.c_str(), r.points[r.best].score);
+}
+
+void add(CLI::App& app) {
+  static Args a;
+  auto* cmd = app.add_subcommand(
+      "calibrate", "Choose a model's output threshold on labelled validation data and save it");
+  cmd->footer(
+      "The model is scored (as `spikems eval` scores it) with its output layer's threshold "
+      "multiplied by each factor; the factor with the best criterion is kept (ties: the one "
+      "nearest 1) and the model is written with that threshold, the choice and the per-factor "
+      "table in its metadata (training.calibration). Calibrate on validation data, never on "
+      "the data you report. See docs/evaluation.md, \"Operating points\".\n\n"
+      "Examples:\n"
+      "  spikems calibrate --model runs/x/best.safetensors --data data/mod-val --split all "
+      "--out runs/x/calibrated.safetensors\n"
+      "  spikems calibrate --model m.safetensors --data data/mod --factors 1,1.1,1.2 "
+      "--criterion iou --window 20 --max-seconds 1 --out m-cal.safetensors");
+  cmd->add_option("--model", a.model, "The model file to calibrate")->required();
+  cmd->add_option("--data", a.data,
+                  "Labelled validation data: simulator folders or recordings (repeat for more)")
+      ->required();
+  cmd->add_option("--split", a.split, "Split of simulator folders: train, val, test or all")
+      ->capture_default_str();
+  cmd->add_option("--factors", a.factors,
+                  "Factors on the output threshold to try, comma-separated (default "
+                  "0.9,0.95,1,1.05,1.1,1.15,1.2,1.25,1.3,1.4)");
+  cmd->add_option("--criterion", a.criterion,
+                  "event-iou: TP/(TP+FP+FN) over all events of the windows (per-event labels); "
+                  "iou: the mean window IoU")
+      ->capture_default_str();
+  cmd->add_option("--window", a.window, "Window length in ms for the scores")
+      ->capture_default_str();
+  cmd->add_option("--out", a.out, "Where to write the calibrated model (a new file)")->required();
+  cmd->add_option("--max-seconds", a.max_seconds,
+                  "Score only the first S seconds of each sequence");
+  cmd->add_option("--threads", a.threads, "Threads inside the network (results identical)")
+      ->capture_default_str();
+  cmd->add_flag("--quiet", a.quiet, "No progress bar or notes on stderr");
+  cmd->callback([] { run(a); });
+}
+
+}  // namespace
+
+SPIKEMS_COMMAND(calibrate, 46, add);

@@ -1,0 +1,125 @@
+#include "core/eval/calibration.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "core/eval/results.h"
+#include "core/model/output_threshold.h"
+#include "core/util/error.h"
+
+namespace spikems {
+
+namespace {
+
+std::string fmt(const char* f, double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, f, v);
+  return b;
+}
+
+}  // namespace
+
+CalibrationResult calibrate(const CalibrationOptions& opt) {
+  if (opt.criterion != "event-iou" && opt.criterion != "iou")
+    fail("--criterion", "", "'" + opt.criterion + "' is not a criterion: use event-iou or iou");
+  if (opt.factors.empty()) fail("--factors", "", "no factor to try");
+  std::vector<double> factors = opt.factors;
+  std::sort(factors.begin(), factors.end());
+  EvalOptions e;
+  e.models = {opt.model};
+  e.data = opt.data;
+  e.split = opt.split;
+  e.windows_us = {opt.window_us};
+  e.output_thresholds = factors;
+  e.threads = opt.threads;
+  e.max_seconds = opt.max_seconds;
+  e.progress = opt.progress;
+  e.command_line = opt.command_line;
+  CalibrationResult r;
+  r.eval = evaluate(e);
+  if (r.eval.interrupted) fail("spikems calibrate", "", "interrupted: no model written");
+  for (const ModelResult& m : r.eval.models) {
+    CalibrationPoint p;
+    p.factor = m.output_threshold;
+    EventCounts ev;
+    double iou_sum = 0;
+    for (const DatasetResult& d : m.datasets) {
+      const WindowSummary& w = d.windows.at(0);
+      iou_sum += w.iou_mean * double(w.windows);
+      p.windows += w.windows;
+      ev.tp += w.events.tp;
+      ev.fp += w.events.fp;
+      ev.fn += w.events.fn;
+      ev.tn += w.events.tn;
+    }
+    if (p.windows == 0)
+      fail(opt.model, "",
+           "no window of the data has moving objects: calibrating needs labelled moving "
+           "events (check --data and --split)");
+    p.iou = iou_sum / double(p.windows);
+    const double union_ = double(ev.tp + ev.fp + ev.fn);
+    p.event_iou = union_ > 0 ? 100 * double(ev.tp) / union_ : 0;
+    p.precision = 100 * ev.precision();
+    p.recall = 100 * ev.recall();
+    p.moving = 100 * ev.moving_share();
+    p.score = opt.criterion == "iou" ? p.iou : p.event_iou;
+    r.points.push_back(p);
+  }
+  for (size_t i = 1; i < r.points.size(); ++i) {
+    const CalibrationPoint &a = r.points[i], &b = r.points[r.best];
+    const bool better =
+        a.score > b.score + 1e-9 ||
+        (a.score >= b.score - 1e-9 && std::abs(std::log(a.factor)) < std::abs(std::log(b.factor)));
+    if (better) r.best = i;
+  }
+  return r;
+}
+
+ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResult& r) {
+  const CalibrationPoint& best = r.points.at(r.best);
+  ModelSpec m = with_output_threshold(load_model(opt.model), best.factor, opt.model);
+  double before = 1;
+  if (m.training.is_object() && m.training.contains("calibration") &&
+      m.training["calibration"].contains("output_threshold_scale"))
+    before = m.training["calibration"]["output_threshold_scale"].get<double>();
+  nlohmann::json table = nlohmann::json::array();
+  for (const auto& p : r.points)
+    table.push_back({{"factor", p.factor},
+                     {"iou", p.iou},
+                     {"event_iou", p.event_iou},
+                     {"event_precision", p.precision},
+                     {"event_recall", p.recall},
+                     {"moving_share", p.moving},
+                     {"windows", p.windows}});
+  if (!m.training.is_object()) m.training = nlohmann::json::object();
+  m.training["calibration"] = {{"factor", best.factor},
+                               {"output_threshold_scale", before * best.factor},
+                               {"criterion", opt.criterion},
+                               {"score", best.score},
+                               {"data", opt.data},
+                               {"split", opt.split},
+                               {"window_ms", double(opt.window_us) / 1000.0},
+                               {"max_seconds", opt.max_seconds},
+                               {"points", table},
+                               {"command", opt.command_line},
+                               {"date", r.eval.date},
+                               {"source_model", opt.model}};
+  return m;
+}
+
+std::string calibration_table(const CalibrationOptions& opt, const CalibrationResult& r) {
+  std::string out = "| factor | IoU % (" + fmt("%g", double(opt.window_us) / 1000.0) +
+                    " ms) | event IoU % | event P % | event R % | moving % | |\n";
+  out += "|---|---|---|---|---|---|---|\n";
+  for (size_t i = 0; i < r.points.size(); ++i) {
+    const CalibrationPoint& p = r.points[i];
+    out += "| " + fmt("%g", p.factor) + " | " + fmt("%.1f", p.iou) + " | " +
+           fmt("%.1f", p.event_iou) + " | " + fmt("%.1f", p.precision) + " | " +
+           fmt("%.1f", p.recall) + " | " + fmt("%.1f", p.moving) + " | " +
+           (i == r.best ? "chosen (" + opt.criterion + ")" : "") + " |\n";
+  }
+  return out;
+}
+
+}  // namespace spikems

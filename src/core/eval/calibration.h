@@ -1,0 +1,57 @@
+// `spikems calibrate`: a trained model's operating point chosen on labelled validation data.
+// The model is scored at each candidate factor on its output layer's threshold
+// (output_threshold.h, through evaluate()), the best factor by a criterion is kept, and the
+// model is written with that θ baked in, the choice recorded in its metadata.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/eval/evaluation.h"
+#include "core/model/model_file.h"
+
+namespace spikems {
+
+struct CalibrationOptions {
+  std::string model;
+  std::vector<std::string> data;  // labelled sources (simulator folders or recordings)
+  std::string split = "val";
+  std::vector<double> factors = {0.9, 0.95, 1, 1.05, 1.1, 1.15, 1.2, 1.25, 1.3, 1.4};
+  int64_t window_us = 20000;
+  // "event-iou": TP / (TP + FP + FN) over the events of all whole windows (the per-event view
+  // `spikems segment` gives; monotone in the event F1); "iou": BRIEF.md's mean window IoU.
+  std::string criterion = "event-iou";
+  double max_seconds = 0;
+  int threads = 1;
+  bool progress = false;
+  std::string command_line;
+};
+
+struct CalibrationPoint {
+  double factor = 1;
+  double score = 0;  // the criterion, percent (0-100)
+  double iou = 0, event_iou = 0, precision = 0, recall = 0, moving = 0;  // percent
+  size_t windows = 0;
+};
+
+struct CalibrationResult {
+  std::vector<CalibrationPoint> points;  // in factor order
+  size_t best = 0;                       // index into points
+  EvalResults eval;                      // the scoring behind them
+};
+
+// Scores the model at every factor and picks the best by the criterion; ties (within 1e-9)
+// go to the factor nearest 1 (in ratio), so a flat curve leaves the model as it is. Throws
+// Error for an unknown criterion, an empty factor list, data without labels or without a
+// scored window (errors of evaluate() included), or an interrupted run.
+CalibrationResult calibrate(const CalibrationOptions& opt);
+
+// The model with the chosen factor applied and `training.calibration` recorded: factor,
+// criterion, score, data, split, window, the per-factor table, command and date. A model
+// calibrated before has its factors multiplied (`output_threshold_scale` keeps the product).
+ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResult& r);
+
+// A table for people: one row per factor, the chosen one marked.
+std::string calibration_table(const CalibrationOptions& opt, const CalibrationResult& r);
+
+}  // namespace spikems
