@@ -25,12 +25,15 @@ for k, l in enumerate(layers):
         a, b = b, a
     assert w.shape == (a, b, l["kernel"], l["kernel"]), (k, w.shape)
     assert w.dtype == np.float32 and np.isfinite(w).all() and np.abs(w).max() > 0
-# Channels chain from layer to layer; the network takes the 2 polarities and gives one map or
-# one per polarity (docs/model.md).
+# Channels chain from layer to layer (a skip connection adds its source layer's channels after
+# the predecessor's); the network takes the 2 polarities and gives one map or one per polarity
+# (docs/model.md, docs/model-format.md).
 assert layers[0]["in_channels"] == 2, layers[0]
 assert layers[-1]["out_channels"] in (1, 2), layers[-1]
-for l0, l1 in zip(layers, layers[1:]):
-    assert l0["out_channels"] == l1["in_channels"]
+for k, (l0, l1) in enumerate(zip(layers, layers[1:])):
+    skip = l1.get("skip_from")
+    extra = layers[skip]["out_channels"] if skip is not None and skip >= 0 else 0
+    assert l0["out_channels"] + extra == l1["in_channels"], (k + 1, l1)
 
 # The same tensors, bit for bit, as spikems' loader gives them.
 dump = json.loads(subprocess.run([args.dump_model, path], check=True, capture_output=True,
