@@ -28,8 +28,7 @@ void run(const Args& a) {
   CalibrationOptions o;
   o.model = a.model;
   o.data = a.data;
-  if (a.split != "train" && a.split != "val" && a.split != "test" && a.split != "all")
-    fail("--split", "", "'" + a.split + "' is not a split: use train, val, test or all");
+  cli::check_split(a.split);
   o.split = a.split;
   if (!a.factors.empty()) o.factors = parse_threshold_scales(a.factors, "--factors");
   const std::vector<int64_t> w = parse_window_list_ms(a.window);

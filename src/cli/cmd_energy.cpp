@@ -24,8 +24,7 @@ struct Args {
 
 void run(const Args& a) {
   install_interrupt_flag();
-  if (a.split != "train" && a.split != "val" && a.split != "test" && a.split != "all")
-    fail("--split", "", "'" + a.split + "' is not a split: use train, val, test or all");
+  cli::check_split(a.split);
   if (a.max_seconds < 0) fail("--max-seconds", "", "must be positive");
   if (!(a.window_ms > 0) || !std::isfinite(a.window_ms))
     fail("--window-ms", "", "a window length must be positive");

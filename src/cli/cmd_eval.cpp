@@ -30,8 +30,7 @@ void run(const Args& a) {
   // Without --model the shipped default is scored (and any --baseline beside it).
   o.models = a.models.empty() ? std::vector<std::string>{default_model_or_fail()} : a.models;
   o.baselines = a.baselines;
-  if (a.split != "train" && a.split != "val" && a.split != "test" && a.split != "all")
-    fail("--split", "", "'" + a.split + "' is not a split: use train, val, test or all");
+  cli::check_split(a.split);
   if (a.max_seconds < 0) fail("--max-seconds", "", "must be positive");
   o.data = a.data;
   o.split = a.split;

@@ -35,6 +35,9 @@ struct ReadFlags {
 };
 void add_read_flags(CLI::App* cmd, ReadFlags& f);
 
+// Throws Error naming --split unless `split` is train, val, test or all.
+void check_split(const std::string& split);
+
 // The command line as typed (shell-quoted, from /proc/self/cmdline), for provenance records.
 std::string invoked_command();
 

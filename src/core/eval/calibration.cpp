@@ -48,10 +48,7 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
       const WindowSummary& w = d.windows.at(0);
       iou_sum += w.iou_mean * double(w.windows);
       p.windows += w.windows;
-      ev.tp += w.events.tp;
-      ev.fp += w.events.fp;
-      ev.fn += w.events.fn;
-      ev.tn += w.events.tn;
+      ev += w.events;
     }
     if (p.windows == 0)
       fail(opt.model, "",
