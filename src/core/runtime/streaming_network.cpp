@@ -97,19 +97,28 @@ const std::vector<uint32_t>& StreamingNetwork::input_of(size_t k, const std::vec
     return pos * c + cp + (n - pos * cs);
   };
   if (std::is_sorted(a.begin(), a.end()) && std::is_sorted(b->begin(), b->end())) {
-    size_t i = 0, j = 0, o = 0;
-    while (i < a.size() && j < b->size()) {
-      const uint32_t x = from_a(a[i]), y = from_b((*b)[j]);
-      if (x < y) {
-        buf[o++] = x;
-        ++i;
-      } else {
-        buf[o++] = y;
-        ++j;
-      }
+    // Both lists mapped first (independent operations), then merged branch-free with a
+    // sentinel ending each: which list comes next is a coin toss for the predictor, and
+    // mapping inside the merge put a division on its serial chain (measured: the branching
+    // merge was ~10 % of the runtime of a six-level model at 1.9 M ev/s).
+    const size_t na = a.size(), nb = b->size();
+    thread_local std::vector<uint32_t> ma, mb;  // per thread: layers may run in parallel
+    ma.resize(na + 1);
+    mb.resize(nb + 1);
+    for (size_t i = 0; i < na; ++i) ma[i] = from_a(a[i]);
+    for (size_t j = 0; j < nb; ++j) mb[j] = from_b((*b)[j]);
+    ma[na] = mb[nb] = ~uint32_t(0);  // above every neuron index (they are < 2^32 - 1)
+    const uint32_t* __restrict pa = ma.data();
+    const uint32_t* __restrict pb = mb.data();
+    uint32_t* __restrict out = buf.data();
+    size_t i = 0, j = 0;
+    for (size_t o = 0; o < na + nb; ++o) {
+      const uint32_t x = pa[i], y = pb[j];
+      const bool take_a = x < y;
+      out[o] = take_a ? x : y;
+      i += take_a;
+      j += !take_a;
     }
-    for (; i < a.size(); ++i) buf[o++] = from_a(a[i]);
-    for (; j < b->size(); ++j) buf[o++] = from_b((*b)[j]);
   } else {
     for (size_t i = 0; i < a.size(); ++i) buf[i] = from_a(a[i]);
     for (size_t j = 0; j < b->size(); ++j) buf[a.size() + j] = from_b((*b)[j]);
