@@ -25,12 +25,12 @@ void add_read_flags(CLI::App* cmd, ReadFlags& f) {
       ->check(CLI::Range(1, 65535));
 }
 
-// The command as typed (for the results' provenance), from /proc where there is one.
 void check_split(const std::string& split) {
   if (split != "train" && split != "val" && split != "test" && split != "all")
     fail("--split", "", "'" + split + "' is not a split: use train, val, test or all");
 }
 
+// The command as typed (for the results' provenance), from /proc where there is one.
 std::string invoked_command() {
   std::ifstream f("/proc/self/cmdline", std::ios::binary);
   std::string raw((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());

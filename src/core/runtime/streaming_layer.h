@@ -144,55 +144,47 @@ class StreamingLayer {
     uint64_t taps = 0;
     each_run<kAhead>(
         geo,
-        [&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int ky,
-            uint32_t op) SPIKEMS_INLINE_LAMBDA {
-          if constexpr (kMark) mark_run(geo, op, uint32_t(run.len), 0);
-          taps += uint64_t(run.len) * uint64_t(e - i);
-          float* __restrict d = at(op);
-          const float* wrow = &geo.wseg[run.weights + size_t(ky) * geo.ky_stride];
-          // Whole blocks of 16: the weights are zero-padded, so the floats past the
-          // run get +0, which changes nothing (targets have 16 spare floats at their
-          // end). Each block is summed over the group's spikes in a register, in
-          // spike order.
-          const int nj = run.len * C;
-          const float* w0 = wrow + size_t(spikes[i] - base) * geo.ci_stride;
-          if (e - i == 1) {
-            for (int j = 0; j < nj; j += 16)
-              simd::store(d + j, simd::load(d + j) + simd::load(w0 + j));
-          } else {
-            bool done = false;
-            if constexpr (CT > 0 && CT % 16 == 0) {
-              // Runs of 1-3 positions of whole vectors: each block of the run in a
-              // register of its own while the spikes are summed. With the blocks inside
-              // the loop over spikes, their chains are independent and that loop's exit
-              // is mispredicted once per run, not once per block (perf: with the blocks
-              // outside, a quarter of the step's samples sat on that add, 1.9 M ev/s).
-              constexpr int B = CT / 16;
-              done = true;
-              switch (run.len) {
-                case 1:
-                  sum_spike_blocks<B>(d, wrow, spikes, i, e, base, geo.ci_stride);
-                  break;
-                case 2:
-                  sum_spike_blocks<2 * B>(d, wrow, spikes, i, e, base, geo.ci_stride);
-                  break;
-                case 3:
-                  sum_spike_blocks<3 * B>(d, wrow, spikes, i, e, base, geo.ci_stride);
-                  break;
-                default:
-                  done = false;
+        [&](size_t i, size_t e, uint32_t base, const ColumnRun& run, int ky, uint32_t op)
+            SPIKEMS_INLINE_LAMBDA {
+              if constexpr (kMark) mark_run(geo, op, uint32_t(run.len), 0);
+              taps += uint64_t(run.len) * uint64_t(e - i);
+              float* __restrict d = at(op);
+              const float* wrow = &geo.wseg[run.weights + size_t(ky) * geo.ky_stride];
+              // Whole blocks of 16: the weights are zero-padded, so the floats past the
+              // run get +0, which changes nothing (targets have 16 spare floats at their
+              // end). Each block is summed over the group's spikes in a register, in
+              // spike order.
+              const int nj = run.len * C;
+              const float* w0 = wrow + size_t(spikes[i] - base) * geo.ci_stride;
+              if (e - i == 1) {
+                for (int j = 0; j < nj; j += 16)
+                  simd::store(d + j, simd::load(d + j) + simd::load(w0 + j));
+              } else {
+                if constexpr (CT > 0 && CT % 16 == 0) {
+                  if (run.len <= 3) {
+                    // Runs of 1-3 positions of whole vectors: each block of the run in a
+                    // register of its own while the spikes are summed. With the blocks inside
+                    // the loop over spikes, their chains are independent and that loop's exit
+                    // is mispredicted once per run, not once per block (perf: with the blocks
+                    // outside, a quarter of the step's samples sat on that add, 1.9 M ev/s).
+                    constexpr int B = CT / 16;
+                    if (run.len == 1)
+                      sum_spike_blocks<B>(d, wrow, spikes, i, e, base, geo.ci_stride);
+                    else if (run.len == 2)
+                      sum_spike_blocks<2 * B>(d, wrow, spikes, i, e, base, geo.ci_stride);
+                    else
+                      sum_spike_blocks<3 * B>(d, wrow, spikes, i, e, base, geo.ci_stride);
+                    return;  // this run is done (the lambda is called once per run)
+                  }
+                }
+                for (int j = 0; j < nj; j += 16) {
+                  simd::F16 acc = simd::load(d + j);
+                  for (size_t k = i; k < e; ++k)
+                    acc += simd::load(wrow + size_t(spikes[k] - base) * geo.ci_stride + size_t(j));
+                  simd::store(d + j, acc);
+                }
               }
-            }
-            if (!done) {
-              for (int j = 0; j < nj; j += 16) {
-                simd::F16 acc = simd::load(d + j);
-                for (size_t k = i; k < e; ++k)
-                  acc += simd::load(wrow + size_t(spikes[k] - base) * geo.ci_stride + size_t(j));
-                simd::store(d + j, acc);
-              }
-            }
-          }
-        },
+            },
         ahead);
     synops_ += taps * uint64_t(C);
   }
