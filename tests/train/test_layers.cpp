@@ -165,6 +165,68 @@ TEST(Loss, DistillMatchesItsFormulaAndGradient) {
   EXPECT_NEAR(silent.grad().item<double>(), -40 / (1 + std::exp(-20.0)), 1e-9);
 }
 
+// Attention transfer: per layer, the squared distance of the unit-norm maps mean_c a^2, by hand;
+// blind to channel counts and scales; exact gradients; the teacher's padding cut off.
+TEST(Loss, AttentionTransferMatchesItsFormulaAndGradient) {
+  // One active pixel each, different pixels: two orthogonal unit vectors, distance^2 = 2.
+  torch::Tensor s = torch::zeros({1, 2, 1, 2}, torch::kDouble), t = s.clone();
+  s[0][0][0][0] = 0.3;
+  t[0][1][0][1] = 5.0;
+  // (Tolerances of 1e-6: the norm's 1e-8 guard against a silent layer.)
+  EXPECT_NEAR(attention_transfer_loss({s}, {t}).item<double>(), 2.0, 1e-6);
+  // The same spatial pattern with other channel counts and scales: no loss.
+  torch::manual_seed(11);
+  const torch::Tensor pattern = torch::rand({2, 1, 3, 4}, torch::kDouble);
+  const torch::Tensor s3 = pattern.repeat({1, 3, 1, 1}) * 0.1;
+  const torch::Tensor t7 = pattern.repeat({1, 7, 1, 1}) * 40.0;
+  EXPECT_LT(attention_transfer_loss({s3}, {t7}).item<double>(), 1e-12);
+  // Random layers, by hand (two layers: the loss is their mean).
+  const torch::Tensor a1 = torch::rand({2, 3, 3, 4}, torch::kDouble);
+  const torch::Tensor b1 = torch::rand({2, 5, 3, 4}, torch::kDouble);
+  const torch::Tensor a2 = torch::rand({2, 2, 2, 2}, torch::kDouble);
+  const torch::Tensor b2 = torch::rand({2, 4, 2, 2}, torch::kDouble);
+  auto by_hand = [](const torch::Tensor& a, const torch::Tensor& b) {
+    double total = 0;
+    const int64_t B = a.size(0), C1 = a.size(1), C2 = b.size(1), H = a.size(2), W = a.size(3);
+    for (int64_t n = 0; n < B; ++n) {
+      std::vector<double> ma, mb;
+      double na = 0, nb = 0;
+      for (int64_t y = 0; y < H; ++y)
+        for (int64_t x = 0; x < W; ++x) {
+          double va = 0, vb = 0;
+          for (int64_t c = 0; c < C1; ++c) va += std::pow(a[n][c][y][x].item<double>(), 2) / C1;
+          for (int64_t c = 0; c < C2; ++c) vb += std::pow(b[n][c][y][x].item<double>(), 2) / C2;
+          ma.push_back(va);
+          mb.push_back(vb);
+          na += va * va;
+          nb += vb * vb;
+        }
+      for (size_t i = 0; i < ma.size(); ++i)
+        total += std::pow(ma[i] / std::sqrt(na) - mb[i] / std::sqrt(nb), 2);
+    }
+    return total / double(B);
+  };
+  EXPECT_NEAR(attention_transfer_loss({a1, a2}, {b1, b2}).item<double>(),
+              (by_hand(a1, b1) + by_hand(a2, b2)) / 2, 1e-6);
+  EXPECT_LT(spikems::test::finite_difference_error(
+                [&](const torch::Tensor& v) { return attention_transfer_loss({v}, {b1}); }, a1),
+            1e-6);
+  // A teacher one row and two columns larger (its padding): the extra part is ignored.
+  torch::Tensor padded = torch::rand({2, 5, 4, 6}, torch::kDouble) * 100;
+  padded.narrow(2, 0, 3).narrow(3, 0, 4).copy_(b1);
+  EXPECT_NEAR(attention_transfer_loss({a1}, {padded}).item<double>(),
+              attention_transfer_loss({a1}, {b1}).item<double>(), 1e-12);
+  // A silent student: the loss is 1 (0 against a unit vector) and the gradient finite.
+  torch::Tensor silent = torch::zeros({2, 3, 3, 4}, torch::kDouble).requires_grad_(true);
+  const torch::Tensor l = attention_transfer_loss({silent}, {b1});
+  l.backward();
+  EXPECT_NEAR(l.item<double>(), 1.0, 1e-6);
+  EXPECT_TRUE(torch::isfinite(silent.grad()).all().item<bool>());
+  // Mismatched lists or samples are refused.
+  EXPECT_THROW(attention_transfer_loss({a1, a2}, {b1}), std::exception);
+  EXPECT_THROW(attention_transfer_loss({a1}, {b1.narrow(0, 0, 1)}), std::exception);
+}
+
 // The potential readout: P = max over steps and channels of u / theta, p = sigmoid(alpha (P - 1))
 // (1/2 exactly at threshold), in L_bce, the soft IoU and the distillation alike; L_spike
 // refuses a potential.

@@ -363,6 +363,10 @@ TEST(Trainer, BadConfigsNameTheKey) {
             std::string::npos);
   EXPECT_NE(msg({"loss.teacher_weight=-1.0"}).find("loss.teacher_weight: must not be negative"),
             std::string::npos);
+  EXPECT_NE(msg({"loss.attention_weight=1.0"}).find("loss.teacher: needs an ANN-2D model file"),
+            std::string::npos);
+  EXPECT_NE(msg({"loss.attention_weight=-1.0"}).find("loss.attention_weight: must not be negative"),
+            std::string::npos);
   EXPECT_NE(msg({"loss.teacher_weight=1.0"}).find("loss.teacher: needs an ANN-2D model file"),
             std::string::npos);
   EXPECT_NE(msg({"loss.teacher_weight=1.0", "loss.teacher=\"t.safetensors\"", "model.type=ann2d",
@@ -519,6 +523,29 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   }
   EXPECT_GT(first, 0.0);
   EXPECT_LT(last, 0.9 * first) << "distillation loss of steps 1-10 vs 91-100";
+  // Attention transfer alone (loss.attention_weight, the distillation off): the loss is the
+  // logged attention term, a mean of squared distances of unit vectors (in [0, 2]).
+  auto av = sv;
+  av.push_back("loss.teacher_weight=0.0");
+  av.push_back("loss.attention_weight=1.0");
+  av.push_back("optim.steps=5");
+  EXPECT_EQ(train_quietly(av, student + "-att").steps, 5);
+  for (const auto& line : read_log(student + "-att", "train")) {
+    const double a = line["attention"].get<double>();
+    EXPECT_GT(a, 0.0);
+    EXPECT_LE(a, 2.0);
+    EXPECT_NEAR(line["loss"].get<double>(), a, 1e-5);
+  }
+  // A teacher of another depth cannot be paired layer by layer: refused, naming the key.
+  auto deeper = av;
+  deeper.push_back("model.channels=[4, 8]");
+  deeper.push_back("model.init_rates=[0.1, 0.1, 0.1, 0.1]");
+  try {
+    train_quietly(deeper, student + "-att2");
+    ADD_FAILURE() << "a teacher of another depth was accepted for attention transfer";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("loss.attention_weight"), std::string::npos) << e.what();
+  }
   // A teacher that is not an ANN-2D (the student's own file) is refused, naming the key.
   auto bad = sv;
   bad.push_back("loss.teacher=" + student + "/model.safetensors");

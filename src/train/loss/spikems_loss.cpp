@@ -1,5 +1,7 @@
 #include "train/loss/spikems_loss.h"
 
+#include <algorithm>
+
 #include "train/neuron/psp.h"
 
 namespace spikems::train {
@@ -123,6 +125,30 @@ torch::Tensor teacher_mean_entropy(const torch::Tensor& input, const torch::Tens
   torch::NoGradGuard ng;
   const torch::Tensor m = mean_over_event_pixels(teacher_prob.detach(), input);
   return -(torch::xlogy(m, m) + torch::xlogy(1 - m, 1 - m));
+}
+
+torch::Tensor attention_map(const torch::Tensor& activation) {
+  TORCH_CHECK(activation.dim() == 4, "attention map: activation must be [B, C, h, w]");
+  const torch::Tensor a = activation.pow(2).mean(1).flatten(1);
+  // The eps keeps a silent layer's map at zero with a finite gradient.
+  return a / (a.norm(2, 1, true) + 1e-8);
+}
+
+torch::Tensor attention_transfer_loss(const std::vector<torch::Tensor>& student,
+                                      const std::vector<torch::Tensor>& teacher) {
+  TORCH_CHECK(student.size() == teacher.size() && !student.empty(),
+              "attention transfer: needs one teacher layer per student layer");
+  torch::Tensor total = torch::zeros({}, student[0].options());
+  for (size_t k = 0; k < student.size(); ++k) {
+    const torch::Tensor &s = student[k], &t = teacher[k];
+    TORCH_CHECK(s.dim() == 4 && t.dim() == 4 && s.size(0) == t.size(0),
+                "attention transfer: layer ", k, " shapes ", s.sizes(), " and ", t.sizes());
+    const int64_t h = std::min(s.size(2), t.size(2)), w = std::min(s.size(3), t.size(3));
+    const torch::Tensor as = attention_map(s.narrow(2, 0, h).narrow(3, 0, w));
+    const torch::Tensor at = attention_map(t.detach().narrow(2, 0, h).narrow(3, 0, w));
+    total = total + (as - at).pow(2).sum(1).mean();
+  }
+  return total / double(student.size());
 }
 
 torch::Tensor van_rossum_loss(const torch::Tensor& out, const torch::Tensor& target,

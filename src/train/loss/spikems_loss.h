@@ -19,6 +19,8 @@
 
 #include <torch/torch.h>
 
+#include <vector>
+
 #include "train/neuron/temporal_kernel.h"
 
 namespace spikems::train {
@@ -89,6 +91,18 @@ torch::Tensor teacher_entropy(const torch::Tensor& input, const torch::Tensor& t
 // (the best constant). A student between this and teacher_entropy has learnt part of the
 // teacher's judgement; at it, none.
 torch::Tensor teacher_mean_entropy(const torch::Tensor& input, const torch::Tensor& teacher_prob);
+// Attention transfer (Zagoruyko & Komodakis, ICLR 2017), beyond the paper: where each hidden
+// layer of the student is active, matched to where the teacher's layer of the same geometry is.
+// A layer's map is the per-pixel mean over channels of the squared activation, flattened and
+// scaled to unit L2 norm per sample, so channel counts and activation scales may differ
+// (spike rates against ReLU outputs). Per layer: the squared distance of the two maps, mean
+// over samples; the loss is the mean over the pairs. student[k], teacher[k]: [B, C, h, w];
+// sizes may differ by the padding (both are cut to the common top-left part). It gives the
+// coarse levels, which the task's gradient reaches 100-1000x weaker than the output layer
+// (docs/training.md), a signal of their own.
+torch::Tensor attention_map(const torch::Tensor& activation);  // [B, C, h, w] -> [B, h * w]
+torch::Tensor attention_transfer_loss(const std::vector<torch::Tensor>& student,
+                                      const std::vector<torch::Tensor>& teacher);
 // target = input masked by the foreground mask, [T, B, C, H, W].
 torch::Tensor foreground_target(const torch::Tensor& input, const torch::Tensor& fg_mask);
 LossTerms spikems_loss(const torch::Tensor& out, const torch::Tensor& input,

@@ -261,6 +261,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("loss", "iou_weight", c.iou_weight);
   b.bind("loss", "teacher", c.teacher);
   b.bind("loss", "teacher_weight", c.teacher_weight);
+  b.bind("loss", "attention_weight", c.attention_weight);
   b.bind("loss", "projection", c.projection);
   b.bind("loss", "alpha", c.alpha);
   b.bind("loss", "beta", c.beta);
@@ -356,6 +357,11 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
     b.bad("loss", "teacher", "needs an ANN-2D model file when loss.teacher_weight > 0");
   if (c.teacher_weight > 0 && c.type == "ann2d")
     b.bad("loss", "teacher_weight", "distils into the spiking network: model.type = \"snn\"");
+  if (!(c.attention_weight >= 0)) b.bad("loss", "attention_weight", "must not be negative");
+  if (c.attention_weight > 0 && c.teacher.empty())
+    b.bad("loss", "teacher", "needs an ANN-2D model file when loss.attention_weight > 0");
+  if (c.attention_weight > 0 && c.type == "ann2d")
+    b.bad("loss", "attention_weight", "transfers into the spiking network: model.type = \"snn\"");
   one_of(b, "loss", "projection", c.projection, {"sigmoid", "exponential"});
   if (c.lambda < 0) b.bad("loss", "lambda", "must not be negative");
   if (c.activity_weight < 0) b.bad("loss", "activity_weight", "must not be negative");

@@ -55,6 +55,9 @@ struct TrainConfig {
   // probabilities the SNN's output is pulled to, with this weight (0: off).
   std::string teacher;
   double teacher_weight = 0;
+  // Attention transfer from the same teacher (spikems_loss.h, attention_transfer_loss): each
+  // hidden layer's spatial activity matched to the teacher's layer of the same index (0: off).
+  double attention_weight = 0;
   std::string projection = "sigmoid";  // sigmoid | exponential
   double alpha = 4.0, beta = 0.5, kappa = 1.0;
   bool all_pixels = true;

@@ -89,6 +89,7 @@ LossOptions loss_options(const TrainConfig& c, double ts) {
 
 struct StepOutput {
   torch::Tensor total, bce, spike, iou, activity, distill;
+  torch::Tensor attention;  // loss.attention_weight's term (unweighted)
   // The distillation's floor: the teacher's own mean binary entropy over the pixels with
   // events, what `distill` would be for a student that matched it exactly.
   torch::Tensor distill_floor;
@@ -143,20 +144,32 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
     if (c.floor_weight > 0 && ceiling > 0)
       o.activity = o.activity + c.floor_weight * torch::relu(rate / ceiling - 1).pow(2);
   }
-  o.distill = zero;
+  o.distill = o.attention = zero;
   o.distill_floor = o.distill_const = zero;
-  if (teacher) {      // set only when loss.teacher_weight > 0
+  if (teacher) {      // set only when loss.teacher_weight or loss.attention_weight > 0
     torch::Tensor q;  // the teacher's probability per pixel, [B, H, W]
+    std::vector<torch::Tensor> t_hidden;
     {
       torch::NoGradGuard ng;
       const torch::Tensor feat = ann_feature_tensor(bt.input, w0, ts, teacher_group);
-      q = torch::sigmoid(align_to_input(teacher->forward(feat), H, W).squeeze(1));
+      std::vector<torch::Tensor> t_layers = teacher->forward_all(feat);
+      q = torch::sigmoid(align_to_input(t_layers.back(), H, W).squeeze(1));
+      t_layers.pop_back();
+      t_hidden = std::move(t_layers);
     }
-    o.distill = distill_loss(scored, in, q, lo);
+    if (c.teacher_weight > 0) o.distill = distill_loss(scored, in, q, lo);
     o.distill_floor = teacher_entropy(in, q);
     o.distill_const = teacher_mean_entropy(in, q);
+    if (c.attention_weight > 0) {
+      // Each hidden layer's firing rate over the window (spikes are 1/Ts: rate = mean x Ts).
+      std::vector<torch::Tensor> s_hidden;
+      for (size_t k = 0; k + 1 < layers.size(); ++k)
+        s_hidden.push_back(layers[k].narrow(0, lw0, tw).mean(0) * ts);
+      o.attention = attention_transfer_loss(s_hidden, t_hidden);
+    }
   }
-  o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity + c.teacher_weight * o.distill;
+  o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity +
+            c.teacher_weight * o.distill + c.attention_weight * o.attention;
   o.out_window = out;
   o.fg_window = fg;
   o.in_window = in;
@@ -180,7 +193,7 @@ StepOutput ann_forward_loss(Ann2dNetwork& net, const BatchTensors& bt, const Tra
   const auto zero = torch::zeros({}, logits.options());
   o.bce = c.loss == "iou" ? zero : l.bce;
   o.iou = l.iou;
-  o.spike = o.activity = o.distill = o.distill_floor = o.distill_const = zero;
+  o.spike = o.activity = o.distill = o.distill_floor = o.distill_const = o.attention = zero;
   o.total = o.bce + iou_w * o.iou;
   for (const auto& a : layers)
     o.rates.push_back((a.detach() > 0).to(torch::kFloat).mean().item<double>());
@@ -385,10 +398,15 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     fail("loss.rate_ceilings", "",
          "gives " + std::to_string(c.rate_ceilings.size()) + " ceilings, the network has " +
              std::to_string(net.size() - 1) + " hidden layers");
-  if (c.teacher_weight > 0) {
+  if (c.teacher_weight > 0 || c.attention_weight > 0) {
     const ModelSpec t = load_model(c.teacher);  // a missing or bad file names itself
     if (t.type != ModelType::ANN2D)
       fail("loss.teacher", "", c.teacher + " is not an ANN-2D model: the teacher must be one");
+    if (c.attention_weight > 0 && t.layers.size() != net.size())
+      fail("loss.attention_weight", "",
+           c.teacher + " has " + std::to_string(t.layers.size()) + " layers, the network " +
+               std::to_string(net.size()) +
+               ": attention transfer pairs layers one to one (the same model.channels)");
     // A teacher trained with coarser steps sees the window re-binned at its own step (exact:
     // ann_feature_tensor's group), so one that discriminates on a single 10 ms frame, and
     // transfers to real cameras best, can teach a student running at 1 or 2 ms.
@@ -584,7 +602,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   double ema_loss = -1, ema_iou = -1;
   WindowScores train_ws;
   double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_soft_iou = 0, sum_act = 0, sum_distill = 0;
-  double sum_distill_floor = 0, sum_distill_const = 0;
+  double sum_distill_floor = 0, sum_distill_const = 0, sum_attention = 0;
   double sum_comm = 0;  // seconds in collectives, waiting for the slowest rank included
   std::vector<double> sum_rates(net.size(), 0.0);
   std::vector<double> sum_grad;  // per parameter tensor, summed over the log interval
@@ -618,11 +636,11 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     StepOutput o = net.step(bt, c, lo, ts);
     // This rank's numbers for the log, gathered from every rank before the backward pass so
     // that a non-finite loss anywhere stops every rank before any weight changes:
-    // [loss terms x8, rates, interrupted, then (intersection, predicted, truth) per window].
-    std::vector<double> mine = {o.total.item<double>(),         o.bce.item<double>(),
-                                o.spike.item<double>(),         o.iou.item<double>(),
-                                o.activity.item<double>(),      o.distill.item<double>(),
-                                o.distill_floor.item<double>(), o.distill_const.item<double>()};
+    // [loss terms x9, rates, interrupted, then (intersection, predicted, truth) per window].
+    std::vector<double> mine = {
+        o.total.item<double>(),         o.bce.item<double>(),           o.spike.item<double>(),
+        o.iou.item<double>(),           o.activity.item<double>(),      o.distill.item<double>(),
+        o.distill_floor.item<double>(), o.distill_const.item<double>(), o.attention.item<double>()};
     mine.insert(mine.end(), o.rates.begin(), o.rates.end());
     mine.push_back(world > 1 && (interrupted() || out_of_time()) ? 1.0 : 0.0);
     for (const auto& m :
@@ -632,7 +650,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     const std::vector<double> all = dist.all_gather(mine);
     double comm_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_comm).count();
-    constexpr size_t kTerms = 8;
+    constexpr size_t kTerms = 9;
     const size_t per_rank = mine.size(), head = kTerms + n_rates;
     // Each rank's loss is the mean over its share; the run's loss is the mean over the ranks
     // (the same number a single process computes for losses that are means over samples).
@@ -692,6 +710,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     sum_distill += terms[5];
     sum_distill_floor += terms[6];
     sum_distill_const += terms[7];
+    sum_attention += terms[8];
     for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += terms[kTerms + k];
     ++in_sum;
     st.wall_seconds =
@@ -724,15 +743,16 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
            double(in_sum * c.batch) / std::max(1e-9, st.wall_seconds - res.wall_seconds)},
           {"wall_s", st.wall_seconds}};
       if (world > 1) line["comm_ms"] = std::round(1e4 * sum_comm / in_sum) / 10;
-      if (c.teacher_weight > 0) {
+      if (c.teacher_weight > 0 || c.attention_weight > 0) {
         line["distill"] = sum_distill / in_sum;
         line["distill_floor"] = sum_distill_floor / in_sum;
         line["distill_const"] = sum_distill_const / in_sum;
       }
+      if (c.attention_weight > 0) line["attention"] = sum_attention / in_sum;
       log_line(line);
       res.wall_seconds = st.wall_seconds;
       sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = sum_distill = sum_comm = 0;
-      sum_distill_floor = sum_distill_const = 0;
+      sum_distill_floor = sum_distill_const = sum_attention = 0;
       std::fill(sum_rates.begin(), sum_rates.end(), 0.0);
       std::fill(sum_grad.begin(), sum_grad.end(), 0.0);
       in_sum = 0;
