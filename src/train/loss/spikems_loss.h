@@ -98,7 +98,7 @@ torch::Tensor teacher_mean_entropy(const torch::Tensor& input, const torch::Tens
 // (spike rates against ReLU outputs). Per layer: the squared distance of the two maps, mean
 // over samples; the loss is the mean over the pairs. student[k], teacher[k]: [B, C, h, w];
 // sizes may differ by the padding (both are cut to the common top-left part). It gives the
-// coarse levels, which the task's gradient reaches 100-1000x weaker than the output layer
+// coarse levels, whose weights get ~10^4 times smaller gradients than the output layer's
 // (docs/training.md), a signal of their own.
 torch::Tensor attention_map(const torch::Tensor& activation);  // [B, C, h, w] -> [B, h * w]
 torch::Tensor attention_transfer_loss(const std::vector<torch::Tensor>& student,
