@@ -227,6 +227,67 @@ TEST(Loss, AttentionTransferMatchesItsFormulaAndGradient) {
   EXPECT_THROW(attention_transfer_loss({a1}, {b1.narrow(0, 0, 1)}), std::exception);
 }
 
+// Feature transfer: per layer, the squared distance of the unit-norm flattened activities, the
+// mean over samples and layers; channel by channel, so the same spatial pattern in other channels
+// is a miss where attention transfer would see none.
+TEST(Loss, FeatureTransferMatchesItsFormulaAndGradient) {
+  torch::manual_seed(13);
+  // A scaled copy: no loss (the scales of rates and ReLU outputs may differ).
+  const torch::Tensor a1 = torch::rand({2, 3, 3, 4}, torch::kDouble);
+  EXPECT_LT(feature_transfer_loss({a1 * 0.05}, {a1 * 30.0}).item<double>(), 1e-12);
+  // One active unit each, the same pixel, other channels: orthogonal, distance^2 = 2 (attention
+  // transfer calls these the same).
+  torch::Tensor s = torch::zeros({1, 2, 1, 2}, torch::kDouble), t = s.clone();
+  s[0][0][0][1] = 0.3;
+  t[0][1][0][1] = 5.0;
+  EXPECT_NEAR(feature_transfer_loss({s}, {t}).item<double>(), 2.0, 1e-6);
+  EXPECT_LT(attention_transfer_loss({s}, {t}).item<double>(), 1e-6);
+  // Random layers, by hand (two layers: the loss is their mean).
+  const torch::Tensor b1 = torch::rand({2, 3, 3, 4}, torch::kDouble);
+  const torch::Tensor a2 = torch::rand({2, 4, 2, 2}, torch::kDouble);
+  const torch::Tensor b2 = torch::rand({2, 4, 2, 2}, torch::kDouble);
+  auto by_hand = [](const torch::Tensor& a, const torch::Tensor& b) {
+    double total = 0;
+    const int64_t B = a.size(0);
+    for (int64_t n = 0; n < B; ++n) {
+      std::vector<double> va, vb;
+      double na = 0, nb = 0;
+      for (int64_t c = 0; c < a.size(1); ++c)
+        for (int64_t y = 0; y < a.size(2); ++y)
+          for (int64_t x = 0; x < a.size(3); ++x) {
+            va.push_back(a[n][c][y][x].item<double>());
+            vb.push_back(b[n][c][y][x].item<double>());
+            na += va.back() * va.back();
+            nb += vb.back() * vb.back();
+          }
+      for (size_t i = 0; i < va.size(); ++i)
+        total += std::pow(va[i] / std::sqrt(na) - vb[i] / std::sqrt(nb), 2);
+    }
+    return total / double(B);
+  };
+  EXPECT_NEAR(feature_transfer_loss({a1, a2}, {b1, b2}).item<double>(),
+              (by_hand(a1, b1) + by_hand(a2, b2)) / 2, 1e-6);
+  EXPECT_LT(spikems::test::finite_difference_error(
+                [&](const torch::Tensor& v) { return feature_transfer_loss({v}, {b1}); }, a1),
+            1e-6);
+  // The teacher's padding (a larger map) is cut away.
+  torch::Tensor padded = torch::rand({2, 3, 4, 6}, torch::kDouble) * 100;
+  padded.narrow(2, 0, 3).narrow(3, 0, 4).copy_(b1);
+  EXPECT_NEAR(feature_transfer_loss({a1}, {padded}).item<double>(),
+              feature_transfer_loss({a1}, {b1}).item<double>(), 1e-12);
+  // A silent student: 1, with a finite gradient.
+  torch::Tensor silent = torch::zeros({2, 3, 3, 4}, torch::kDouble).requires_grad_(true);
+  const torch::Tensor l = feature_transfer_loss({silent}, {b1});
+  l.backward();
+  EXPECT_NEAR(l.item<double>(), 1.0, 1e-6);
+  EXPECT_TRUE(torch::isfinite(silent.grad()).all().item<bool>());
+  // Other channel counts, samples or list lengths are refused.
+  EXPECT_THROW(feature_transfer_loss({a1}, {torch::rand({2, 5, 3, 4}, torch::kDouble)}),
+               std::exception);
+  EXPECT_THROW(feature_transfer_loss({a1}, {b1.narrow(0, 0, 1)}), std::exception);
+  EXPECT_THROW(feature_transfer_loss({a1, a2}, {b1}), std::exception);
+}
+
 // The potential readout: P = max over steps and channels of u / theta, p = sigmoid(alpha (P - 1))
 // (1/2 exactly at threshold), in L_bce, the soft IoU and the distillation alike; L_spike
 // refuses a potential.

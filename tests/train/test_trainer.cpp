@@ -367,6 +367,13 @@ TEST(Trainer, BadConfigsNameTheKey) {
             std::string::npos);
   EXPECT_NE(msg({"loss.attention_weight=-1.0"}).find("loss.attention_weight: must not be negative"),
             std::string::npos);
+  EXPECT_NE(msg({"loss.feature_weight=1.0"}).find("loss.teacher: needs an ANN-2D model file"),
+            std::string::npos);
+  EXPECT_NE(msg({"model.init_ann=\"a.safetensors\"", "model.init=\"b.safetensors\""})
+                .find("model.init_ann: starts a spiking network's data initialisation"),
+            std::string::npos);
+  EXPECT_NE(msg({"loss.feature_weight=-1.0"}).find("loss.feature_weight: must not be negative"),
+            std::string::npos);
   EXPECT_NE(msg({"loss.teacher_weight=1.0"}).find("loss.teacher: needs an ANN-2D model file"),
             std::string::npos);
   EXPECT_NE(msg({"loss.teacher_weight=1.0", "loss.teacher=\"t.safetensors\"", "model.type=ann2d",
@@ -523,19 +530,24 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   }
   EXPECT_GT(first, 0.0);
   EXPECT_LT(last, 0.9 * first) << "distillation loss of steps 1-10 vs 91-100";
-  // Attention transfer alone (loss.attention_weight, the distillation off): the loss is the
-  // logged attention term, a mean of squared distances of unit vectors (in [0, 2]).
-  auto av = sv;
-  av.push_back("loss.teacher_weight=0.0");
-  av.push_back("loss.attention_weight=1.0");
-  av.push_back("optim.steps=5");
-  EXPECT_EQ(train_quietly(av, student + "-att").steps, 5);
-  for (const auto& line : read_log(student + "-att", "train")) {
-    const double a = line["attention"].get<double>();
-    EXPECT_GT(a, 0.0);
-    EXPECT_LE(a, 2.0);
-    EXPECT_NEAR(line["loss"].get<double>(), a, 1e-5);
-  }
+  // Attention or feature transfer alone (the distillation off): the loss is the logged term,
+  // a mean of squared distances of unit vectors (in (0, 2]); the other term is not logged.
+  auto transfer_only = [&](const std::string& key, const std::string& other,
+                           const std::string& out) {
+    auto v = sv;
+    for (const std::string k : {"loss.teacher_weight=0.0", "optim.steps=5"}) v.push_back(k);
+    v.push_back("loss." + key + "_weight=1.0");
+    EXPECT_EQ(train_quietly(v, out).steps, 5);
+    for (const auto& line : read_log(out, "train")) {
+      const double a = line[key].get<double>();
+      EXPECT_GT(a, 0.0);
+      EXPECT_LE(a, 2.0);
+      EXPECT_NEAR(line["loss"].get<double>(), a, 1e-5);
+      EXPECT_FALSE(line.contains(other));
+    }
+    return v;
+  };
+  const auto av = transfer_only("attention", "feature", student + "-att");
   // A teacher of another depth cannot be paired layer by layer: refused, naming the key.
   auto deeper = av;
   deeper.push_back("model.channels=[4, 8]");
@@ -545,6 +557,24 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
     ADD_FAILURE() << "a teacher of another depth was accepted for attention transfer";
   } catch (const std::exception& e) {
     EXPECT_NE(std::string(e.what()).find("loss.attention_weight"), std::string::npos) << e.what();
+  }
+  const auto fv = transfer_only("feature", "attention", student + "-feat");
+  // Started from the teacher's own weights (model.init_ann), the hidden layers begin nearer the
+  // teacher's activity than from random weights.
+  auto fa = fv;
+  fa.push_back("model.init_ann=" + dir + "/model.safetensors");
+  EXPECT_EQ(train_quietly(fa, student + "-feat-ann").steps, 5);
+  const double f_random = read_log(student + "-feat", "train").at(0)["feature"].get<double>();
+  const double f_ann = read_log(student + "-feat-ann", "train").at(0)["feature"].get<double>();
+  EXPECT_LT(f_ann, 0.8 * f_random) << "feature term at step 1 (measured: 0.54 against 1.36)";
+  // The same depth with other channels pairs layers but not channels: refused, naming the key.
+  auto narrower = fv;
+  narrower.push_back("model.channels=[16, 32, 32]");
+  try {
+    train_quietly(narrower, student + "-feat2");
+    ADD_FAILURE() << "a teacher with other channels was accepted for feature transfer";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("loss.feature_weight"), std::string::npos) << e.what();
   }
   // A teacher that is not an ANN-2D (the student's own file) is refused, naming the key.
   auto bad = sv;

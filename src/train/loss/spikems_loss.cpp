@@ -127,28 +127,58 @@ torch::Tensor teacher_mean_entropy(const torch::Tensor& input, const torch::Tens
   return -(torch::xlogy(m, m) + torch::xlogy(1 - m, 1 - m));
 }
 
-torch::Tensor attention_map(const torch::Tensor& activation) {
-  TORCH_CHECK(activation.dim() == 4, "attention map: activation must be [B, C, h, w]");
-  const torch::Tensor a = activation.pow(2).mean(1).flatten(1);
-  // The eps keeps a silent layer's map at zero with a finite gradient.
-  return a / (a.norm(2, 1, true) + 1e-8);
+namespace {
+
+// Per sample, a flattened map scaled to unit L2 norm; the eps keeps a silent layer's map at
+// zero with a finite gradient.
+torch::Tensor unit_rows(const torch::Tensor& m) {
+  return m / (m.norm(2, 1, true) + 1e-8);
 }
 
-torch::Tensor attention_transfer_loss(const std::vector<torch::Tensor>& student,
-                                      const std::vector<torch::Tensor>& teacher) {
-  TORCH_CHECK(student.size() == teacher.size() && !student.empty(),
-              "attention transfer: needs one teacher layer per student layer");
+}  // namespace
+
+torch::Tensor attention_map(const torch::Tensor& activation) {
+  TORCH_CHECK(activation.dim() == 4, "attention map: activation must be [B, C, h, w]");
+  return unit_rows(activation.pow(2).mean(1).flatten(1));
+}
+
+namespace {
+
+// The mean over layer pairs of the mean over samples of |map(s) - map(t)|^2, both cut to their
+// common top-left part (the padding); the teacher is not trained. `channels`: the pairs must
+// have the same channel counts.
+template <class Map>
+torch::Tensor paired_map_loss(const std::vector<torch::Tensor>& student,
+                              const std::vector<torch::Tensor>& teacher, const char* name,
+                              bool channels, Map map) {
+  TORCH_CHECK(student.size() == teacher.size() && !student.empty(), name,
+              ": needs one teacher layer per student layer");
   torch::Tensor total = torch::zeros({}, student[0].options());
   for (size_t k = 0; k < student.size(); ++k) {
     const torch::Tensor &s = student[k], &t = teacher[k];
-    TORCH_CHECK(s.dim() == 4 && t.dim() == 4 && s.size(0) == t.size(0),
-                "attention transfer: layer ", k, " shapes ", s.sizes(), " and ", t.sizes());
+    TORCH_CHECK(s.dim() == 4 && t.dim() == 4 && s.size(0) == t.size(0) &&
+                    (!channels || s.size(1) == t.size(1)),
+                name, ": layer ", k, " shapes ", s.sizes(), " and ", t.sizes(),
+                channels ? " (the channel counts must match)" : "");
     const int64_t h = std::min(s.size(2), t.size(2)), w = std::min(s.size(3), t.size(3));
-    const torch::Tensor as = attention_map(s.narrow(2, 0, h).narrow(3, 0, w));
-    const torch::Tensor at = attention_map(t.detach().narrow(2, 0, h).narrow(3, 0, w));
-    total = total + (as - at).pow(2).sum(1).mean();
+    const torch::Tensor ms = map(s.narrow(2, 0, h).narrow(3, 0, w));
+    const torch::Tensor mt = map(t.detach().narrow(2, 0, h).narrow(3, 0, w));
+    total = total + (ms - mt).pow(2).sum(1).mean();
   }
   return total / double(student.size());
+}
+
+}  // namespace
+
+torch::Tensor attention_transfer_loss(const std::vector<torch::Tensor>& student,
+                                      const std::vector<torch::Tensor>& teacher) {
+  return paired_map_loss(student, teacher, "attention transfer", false, attention_map);
+}
+
+torch::Tensor feature_transfer_loss(const std::vector<torch::Tensor>& student,
+                                    const std::vector<torch::Tensor>& teacher) {
+  return paired_map_loss(student, teacher, "feature transfer", true,
+                         [](const torch::Tensor& a) { return unit_rows(a.flatten(1)); });
 }
 
 torch::Tensor van_rossum_loss(const torch::Tensor& out, const torch::Tensor& target,

@@ -103,6 +103,18 @@ torch::Tensor teacher_mean_entropy(const torch::Tensor& input, const torch::Tens
 torch::Tensor attention_map(const torch::Tensor& activation);  // [B, C, h, w] -> [B, h * w]
 torch::Tensor attention_transfer_loss(const std::vector<torch::Tensor>& student,
                                       const std::vector<torch::Tensor>& teacher);
+// Feature transfer (FitNets' hints, Romero et al., ICLR 2015, made scale-free as attention
+// transfer is), beyond the paper: each hidden layer's activity matched channel by channel to the
+// teacher's layer of the same index, not only where it is active. A layer's activity [B, C, h, w]
+// is flattened per sample and scaled to unit L2 norm (rates against ReLU outputs: the scales
+// differ, the pattern must not); per layer the squared distance of the two, mean over samples;
+// the loss is the mean over the pairs, in [0, 2] for non-negative activities. The channel counts
+// must match (the same model.channels); sizes may differ by the padding (cut to the common
+// top-left part). Why: attention maps say where a layer is busy, not what it computes there; the
+// teacher's channels carry the context that tells object from camera motion, and a per-layer
+// target gives every layer a gradient that does not cross the whole spiking stack.
+torch::Tensor feature_transfer_loss(const std::vector<torch::Tensor>& student,
+                                    const std::vector<torch::Tensor>& teacher);
 // target = input masked by the foreground mask, [T, B, C, H, W].
 torch::Tensor foreground_target(const torch::Tensor& input, const torch::Tensor& fg_mask);
 LossTerms spikems_loss(const torch::Tensor& out, const torch::Tensor& input,

@@ -236,6 +236,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   c.init_rates.assign(2 * c.channels.size(), 0.03);
   c.init_rates.back() = 0.02;
   b.bind_list("model", "init_rates", c.init_rates);
+  b.bind("model", "init_ann", c.init_ann);
   b.bind_sources("data", "train", c.train, "train");
   b.bind_sources("data", "val", c.val, "val");
   SampleOptions& s = c.sample;
@@ -262,6 +263,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("loss", "teacher", c.teacher);
   b.bind("loss", "teacher_weight", c.teacher_weight);
   b.bind("loss", "attention_weight", c.attention_weight);
+  b.bind("loss", "feature_weight", c.feature_weight);
   b.bind("loss", "projection", c.projection);
   b.bind("loss", "alpha", c.alpha);
   b.bind("loss", "beta", c.beta);
@@ -313,6 +315,10 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.init_rates.size() != 2 * c.channels.size())
     b.bad("model", "init_rates",
           "needs one rate per layer (" + std::to_string(2 * c.channels.size()) + ")");
+  if (!c.init_ann.empty() && (c.init != "data" || c.type != "snn"))
+    b.bad("model", "init_ann",
+          "starts a spiking network's data initialisation: needs model.init = \"data\" and "
+          "model.type = \"snn\"");
   for (double r : c.init_rates)
     if (!(r > 0 && r < 1)) b.bad("model", "init_rates", "rates must lie in (0, 1)");
   if (c.train.empty()) b.bad("data", "train", "no training data: give at least one dataset");
@@ -362,6 +368,11 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
     b.bad("loss", "teacher", "needs an ANN-2D model file when loss.attention_weight > 0");
   if (c.attention_weight > 0 && c.type == "ann2d")
     b.bad("loss", "attention_weight", "transfers into the spiking network: model.type = \"snn\"");
+  if (!(c.feature_weight >= 0)) b.bad("loss", "feature_weight", "must not be negative");
+  if (c.feature_weight > 0 && c.teacher.empty())
+    b.bad("loss", "teacher", "needs an ANN-2D model file when loss.feature_weight > 0");
+  if (c.feature_weight > 0 && c.type == "ann2d")
+    b.bad("loss", "feature_weight", "transfers into the spiking network: model.type = \"snn\"");
   one_of(b, "loss", "projection", c.projection, {"sigmoid", "exponential"});
   if (c.lambda < 0) b.bad("loss", "lambda", "must not be negative");
   if (c.activity_weight < 0) b.bad("loss", "activity_weight", "must not be negative");

@@ -43,6 +43,10 @@ struct TrainConfig {
   // Data-init firing targets, one per layer (2 x levels); 0.03 each and 0.02 for the output
   // when not given.
   std::vector<double> init_rates = {0.03, 0.03, 0.03, 0.03, 0.03, 0.02};
+  // With init = "data": an ANN-2D model file of the same geometry whose weights give each
+  // layer's starting pattern (weight_init.h, ann_weight_directions) instead of random draws;
+  // the scales are still set on data. Empty: random.
+  std::string init_ann;
   // [data]
   std::vector<DatasetSource> train, val;
   // [sample]
@@ -58,6 +62,9 @@ struct TrainConfig {
   // Attention transfer from the same teacher (spikems_loss.h, attention_transfer_loss): each
   // hidden layer's spatial activity matched to the teacher's layer of the same index (0: off).
   double attention_weight = 0;
+  // Feature transfer (spikems_loss.h, feature_transfer_loss): each hidden layer's activity
+  // matched channel by channel to the teacher's (0: off).
+  double feature_weight = 0;
   std::string projection = "sigmoid";  // sigmoid | exponential
   double alpha = 4.0, beta = 0.5, kappa = 1.0;
   bool all_pixels = true;

@@ -90,6 +90,7 @@ LossOptions loss_options(const TrainConfig& c, double ts) {
 struct StepOutput {
   torch::Tensor total, bce, spike, iou, activity, distill;
   torch::Tensor attention;  // loss.attention_weight's term (unweighted)
+  torch::Tensor feature;    // loss.feature_weight's term (unweighted)
   // The distillation's floor: the teacher's own mean binary entropy over the pixels with
   // events, what `distill` would be for a student that matched it exactly.
   torch::Tensor distill_floor;
@@ -144,9 +145,9 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
     if (c.floor_weight > 0 && ceiling > 0)
       o.activity = o.activity + c.floor_weight * torch::relu(rate / ceiling - 1).pow(2);
   }
-  o.distill = o.attention = zero;
+  o.distill = o.attention = o.feature = zero;
   o.distill_floor = o.distill_const = zero;
-  if (teacher) {      // set only when loss.teacher_weight or loss.attention_weight > 0
+  if (teacher) {      // set only when loss.teacher_weight, attention_weight or feature_weight > 0
     torch::Tensor q;  // the teacher's probability per pixel, [B, H, W]
     std::vector<torch::Tensor> t_hidden;
     {
@@ -160,16 +161,18 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
     if (c.teacher_weight > 0) o.distill = distill_loss(scored, in, q, lo);
     o.distill_floor = teacher_entropy(in, q);
     o.distill_const = teacher_mean_entropy(in, q);
-    if (c.attention_weight > 0) {
+    if (c.attention_weight > 0 || c.feature_weight > 0) {
       // Each hidden layer's firing rate over the window (spikes are 1/Ts: rate = mean x Ts).
       std::vector<torch::Tensor> s_hidden;
       for (size_t k = 0; k + 1 < layers.size(); ++k)
         s_hidden.push_back(layers[k].narrow(0, lw0, tw).mean(0) * ts);
-      o.attention = attention_transfer_loss(s_hidden, t_hidden);
+      if (c.attention_weight > 0) o.attention = attention_transfer_loss(s_hidden, t_hidden);
+      if (c.feature_weight > 0) o.feature = feature_transfer_loss(s_hidden, t_hidden);
     }
   }
   o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity +
-            c.teacher_weight * o.distill + c.attention_weight * o.attention;
+            c.teacher_weight * o.distill + c.attention_weight * o.attention +
+            c.feature_weight * o.feature;
   o.out_window = out;
   o.fg_window = fg;
   o.in_window = in;
@@ -193,7 +196,8 @@ StepOutput ann_forward_loss(Ann2dNetwork& net, const BatchTensors& bt, const Tra
   const auto zero = torch::zeros({}, logits.options());
   o.bce = c.loss == "iou" ? zero : l.bce;
   o.iou = l.iou;
-  o.spike = o.activity = o.distill = o.distill_floor = o.distill_const = o.attention = zero;
+  o.spike = o.activity = o.distill = o.distill_floor = o.distill_const = o.attention = o.feature =
+      zero;
   o.total = o.bce + iou_w * o.iou;
   for (const auto& a : layers)
     o.rates.push_back((a.detach() > 0).to(torch::kFloat).mean().item<double>());
@@ -398,7 +402,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     fail("loss.rate_ceilings", "",
          "gives " + std::to_string(c.rate_ceilings.size()) + " ceilings, the network has " +
              std::to_string(net.size() - 1) + " hidden layers");
-  if (c.teacher_weight > 0 || c.attention_weight > 0) {
+  if (c.teacher_weight > 0 || c.attention_weight > 0 || c.feature_weight > 0) {
     const ModelSpec t = load_model(c.teacher);  // a missing or bad file names itself
     if (t.type != ModelType::ANN2D)
       fail("loss.teacher", "", c.teacher + " is not an ANN-2D model: the teacher must be one");
@@ -407,6 +411,18 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
            c.teacher + " has " + std::to_string(t.layers.size()) + " layers, the network " +
                std::to_string(net.size()) +
                ": attention transfer pairs layers one to one (the same model.channels)");
+    if (c.feature_weight > 0) {
+      // Channel by channel: every hidden layer's output channels must match the teacher's.
+      const ModelSpec& s = spec;
+      bool same = t.layers.size() == s.layers.size();
+      for (size_t k = 0; same && k + 1 < s.layers.size(); ++k)
+        same = t.layers[k].out_channels == s.layers[k].out_channels;
+      if (!same)
+        fail("loss.feature_weight", "",
+             c.teacher +
+                 ": feature transfer pairs layers and channels one to one; the teacher's "
+                 "hidden layers must have the network's channels (the same model.channels)");
+    }
     // A teacher trained with coarser steps sees the window re-binned at its own step (exact:
     // ann_feature_tensor's group), so one that discriminates on a single 10 ms frame, and
     // transfers to real cameras best, can teach a student running at 1 or 2 ms.
@@ -446,7 +462,17 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
       // data-parallel broadcast below. The random draws stay on the CPU, the same everywhere.
       net.module().to(device);
       BatchTensors bt = to_tensors(b.samples, ts, device);
-      auto r = init_weights_from_data(net.snn, bt.input, c.init_rates, ts, c.seed);
+      std::vector<torch::Tensor> directions;
+      if (!c.init_ann.empty()) {
+        ModelSpec ann;
+        try {
+          ann = load_model(c.init_ann);
+        } catch (const std::exception& e) {
+          fail("model.init_ann", "", e.what());
+        }
+        directions = ann_weight_directions(ann, spec, "model.init_ann: " + c.init_ann);
+      }
+      auto r = init_weights_from_data(net.snn, bt.input, c.init_rates, ts, c.seed, directions);
       net.module().to(torch::kCPU);
       if (ro.progress) {
         std::fprintf(stderr, "init: layer firing rates");
@@ -602,7 +628,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   double ema_loss = -1, ema_iou = -1;
   WindowScores train_ws;
   double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_soft_iou = 0, sum_act = 0, sum_distill = 0;
-  double sum_distill_floor = 0, sum_distill_const = 0, sum_attention = 0;
+  double sum_distill_floor = 0, sum_distill_const = 0, sum_attention = 0, sum_feature = 0;
   double sum_comm = 0;  // seconds in collectives, waiting for the slowest rank included
   std::vector<double> sum_rates(net.size(), 0.0);
   std::vector<double> sum_grad;  // per parameter tensor, summed over the log interval
@@ -636,11 +662,12 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     StepOutput o = net.step(bt, c, lo, ts);
     // This rank's numbers for the log, gathered from every rank before the backward pass so
     // that a non-finite loss anywhere stops every rank before any weight changes:
-    // [loss terms x9, rates, interrupted, then (intersection, predicted, truth) per window].
-    std::vector<double> mine = {
-        o.total.item<double>(),         o.bce.item<double>(),           o.spike.item<double>(),
-        o.iou.item<double>(),           o.activity.item<double>(),      o.distill.item<double>(),
-        o.distill_floor.item<double>(), o.distill_const.item<double>(), o.attention.item<double>()};
+    // [loss terms x10, rates, interrupted, then (intersection, predicted, truth) per window].
+    std::vector<double> mine = {o.total.item<double>(),         o.bce.item<double>(),
+                                o.spike.item<double>(),         o.iou.item<double>(),
+                                o.activity.item<double>(),      o.distill.item<double>(),
+                                o.distill_floor.item<double>(), o.distill_const.item<double>(),
+                                o.attention.item<double>(),     o.feature.item<double>()};
     mine.insert(mine.end(), o.rates.begin(), o.rates.end());
     mine.push_back(world > 1 && (interrupted() || out_of_time()) ? 1.0 : 0.0);
     for (const auto& m :
@@ -650,7 +677,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     const std::vector<double> all = dist.all_gather(mine);
     double comm_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_comm).count();
-    constexpr size_t kTerms = 9;
+    constexpr size_t kTerms = 10;
     const size_t per_rank = mine.size(), head = kTerms + n_rates;
     // Each rank's loss is the mean over its share; the run's loss is the mean over the ranks
     // (the same number a single process computes for losses that are means over samples).
@@ -711,6 +738,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     sum_distill_floor += terms[6];
     sum_distill_const += terms[7];
     sum_attention += terms[8];
+    sum_feature += terms[9];
     for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += terms[kTerms + k];
     ++in_sum;
     st.wall_seconds =
@@ -743,16 +771,17 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
            double(in_sum * c.batch) / std::max(1e-9, st.wall_seconds - res.wall_seconds)},
           {"wall_s", st.wall_seconds}};
       if (world > 1) line["comm_ms"] = std::round(1e4 * sum_comm / in_sum) / 10;
-      if (c.teacher_weight > 0 || c.attention_weight > 0) {
+      if (c.teacher_weight > 0 || c.attention_weight > 0 || c.feature_weight > 0) {
         line["distill"] = sum_distill / in_sum;
         line["distill_floor"] = sum_distill_floor / in_sum;
         line["distill_const"] = sum_distill_const / in_sum;
       }
       if (c.attention_weight > 0) line["attention"] = sum_attention / in_sum;
+      if (c.feature_weight > 0) line["feature"] = sum_feature / in_sum;
       log_line(line);
       res.wall_seconds = st.wall_seconds;
       sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = sum_distill = sum_comm = 0;
-      sum_distill_floor = sum_distill_const = sum_attention = 0;
+      sum_distill_floor = sum_distill_const = sum_attention = sum_feature = 0;
       std::fill(sum_rates.begin(), sum_rates.end(), 0.0);
       std::fill(sum_grad.begin(), sum_grad.end(), 0.0);
       in_sum = 0;
