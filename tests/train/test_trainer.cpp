@@ -567,6 +567,16 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   const double f_random = read_log(student + "-feat", "train").at(0)["feature"].get<double>();
   const double f_ann = read_log(student + "-feat-ann", "train").at(0)["feature"].get<double>();
   EXPECT_LT(f_ann, 0.8 * f_random) << "feature term at step 1 (measured: 0.54 against 1.36)";
+  // A missing ANN file is refused before any data is read, naming the key.
+  auto missing = fv;
+  missing.push_back("model.init_ann=" + dir + "/no-such.safetensors");
+  try {
+    train_quietly(missing, student + "-feat-missing");
+    ADD_FAILURE() << "a missing model.init_ann file was accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("model.init_ann"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no-such.safetensors"), std::string::npos) << e.what();
+  }
   // The same depth with other channels pairs layers but not channels: refused, naming the key.
   auto narrower = fv;
   narrower.push_back("model.channels=[16, 32, 32]");

@@ -351,6 +351,25 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   torch::manual_seed(c.seed);
   install_interrupt_flag();
 
+  // Model files named by the config, read before the data (minutes): a missing or bad one is
+  // reported at once, naming its key. Their fit to the network is checked below.
+  if (!ro.resume) {
+    const std::pair<const char*, const std::string*> files[] = {
+        {"model.init", c.init != "data" ? &c.init : nullptr},
+        {"model.init_ann", c.init_ann.empty() ? nullptr : &c.init_ann},
+        {"loss.teacher", c.teacher_weight > 0 || c.attention_weight > 0 || c.feature_weight > 0
+                             ? &c.teacher
+                             : nullptr}};
+    for (const auto& [key, path] : files) {
+      if (!path) continue;
+      try {
+        load_model(*path);
+      } catch (const std::exception& e) {
+        fail(key, "", e.what());
+      }
+    }
+  }
+
   // Data: everything in memory (a 2 s simulated sequence is ~100 MB).
   std::vector<LabelledSequence> train_seqs, val_seqs;
   std::vector<double> weights;
