@@ -65,6 +65,10 @@ struct TrainConfig {
   // Feature transfer (spikems_loss.h, feature_transfer_loss): each hidden layer's activity
   // matched channel by channel to the teacher's (0: off).
   double feature_weight = 0;
+  // Whether any term needs `teacher` (distillation, attention or feature transfer).
+  bool uses_teacher() const {
+    return teacher_weight > 0 || attention_weight > 0 || feature_weight > 0;
+  }
   std::string projection = "sigmoid";  // sigmoid | exponential
   double alpha = 4.0, beta = 0.5, kappa = 1.0;
   bool all_pixels = true;

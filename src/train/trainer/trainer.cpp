@@ -147,7 +147,7 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
   }
   o.distill = o.attention = o.feature = zero;
   o.distill_floor = o.distill_const = zero;
-  if (teacher) {      // set only when loss.teacher_weight, attention_weight or feature_weight > 0
+  if (teacher) {      // set only when c.uses_teacher()
     torch::Tensor q;  // the teacher's probability per pixel, [B, H, W]
     std::vector<torch::Tensor> t_hidden;
     {
@@ -353,22 +353,18 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
 
   // Model files named by the config, read before the data (minutes): a missing or bad one is
   // reported at once, naming its key. Their fit to the network is checked below.
-  if (!ro.resume) {
-    const std::pair<const char*, const std::string*> files[] = {
-        {"model.init", c.init != "data" ? &c.init : nullptr},
-        {"model.init_ann", c.init_ann.empty() ? nullptr : &c.init_ann},
-        {"loss.teacher", c.teacher_weight > 0 || c.attention_weight > 0 || c.feature_weight > 0
-                             ? &c.teacher
-                             : nullptr}};
-    for (const auto& [key, path] : files) {
-      if (!path) continue;
-      try {
-        load_model(*path);
-      } catch (const std::exception& e) {
-        fail(key, "", e.what());
-      }
+  auto read_model = [](const char* key, const std::string& path) {
+    try {
+      return load_model(path);
+    } catch (const std::exception& e) {
+      fail(key, "", e.what());
     }
-  }
+  };
+  if (!ro.resume && c.init != "data") read_model("model.init", c.init);
+  const ModelSpec teacher_spec =
+      c.uses_teacher() ? read_model("loss.teacher", c.teacher) : ModelSpec{};
+  const ModelSpec init_ann_spec =
+      !ro.resume && !c.init_ann.empty() ? read_model("model.init_ann", c.init_ann) : ModelSpec{};
 
   // Data: everything in memory (a 2 s simulated sequence is ~100 MB).
   std::vector<LabelledSequence> train_seqs, val_seqs;
@@ -421,8 +417,8 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     fail("loss.rate_ceilings", "",
          "gives " + std::to_string(c.rate_ceilings.size()) + " ceilings, the network has " +
              std::to_string(net.size() - 1) + " hidden layers");
-  if (c.teacher_weight > 0 || c.attention_weight > 0 || c.feature_weight > 0) {
-    const ModelSpec t = load_model(c.teacher);  // a missing or bad file names itself
+  if (c.uses_teacher()) {
+    const ModelSpec& t = teacher_spec;
     if (t.type != ModelType::ANN2D)
       fail("loss.teacher", "", c.teacher + " is not an ANN-2D model: the teacher must be one");
     if (c.attention_weight > 0 && t.layers.size() != net.size())
@@ -432,10 +428,9 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
                ": attention transfer pairs layers one to one (the same model.channels)");
     if (c.feature_weight > 0) {
       // Channel by channel: every hidden layer's output channels must match the teacher's.
-      const ModelSpec& s = spec;
-      bool same = t.layers.size() == s.layers.size();
-      for (size_t k = 0; same && k + 1 < s.layers.size(); ++k)
-        same = t.layers[k].out_channels == s.layers[k].out_channels;
+      bool same = t.layers.size() == spec.layers.size();
+      for (size_t k = 0; same && k + 1 < spec.layers.size(); ++k)
+        same = t.layers[k].out_channels == spec.layers[k].out_channels;
       if (!same)
         fail("loss.feature_weight", "",
              c.teacher +
@@ -482,15 +477,8 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
       net.module().to(device);
       BatchTensors bt = to_tensors(b.samples, ts, device);
       std::vector<torch::Tensor> directions;
-      if (!c.init_ann.empty()) {
-        ModelSpec ann;
-        try {
-          ann = load_model(c.init_ann);
-        } catch (const std::exception& e) {
-          fail("model.init_ann", "", e.what());
-        }
-        directions = ann_weight_directions(ann, spec, "model.init_ann: " + c.init_ann);
-      }
+      if (!c.init_ann.empty())
+        directions = ann_weight_directions(init_ann_spec, spec, "model.init_ann: " + c.init_ann);
       auto r = init_weights_from_data(net.snn, bt.input, c.init_rates, ts, c.seed, directions);
       net.module().to(torch::kCPU);
       if (ro.progress) {
@@ -790,7 +778,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
            double(in_sum * c.batch) / std::max(1e-9, st.wall_seconds - res.wall_seconds)},
           {"wall_s", st.wall_seconds}};
       if (world > 1) line["comm_ms"] = std::round(1e4 * sum_comm / in_sum) / 10;
-      if (c.teacher_weight > 0 || c.attention_weight > 0 || c.feature_weight > 0) {
+      if (c.uses_teacher()) {
         line["distill"] = sum_distill / in_sum;
         line["distill_floor"] = sum_distill_floor / in_sum;
         line["distill_const"] = sum_distill_const / in_sum;

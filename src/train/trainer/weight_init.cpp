@@ -41,16 +41,15 @@ std::vector<torch::Tensor> ann_weight_directions(const ModelSpec& ann, const Mod
     torch::Tensor d = transposed
                           ? torch::zeros({s.in_channels, s.out_channels, s.kernel, s.kernel})
                           : torch::zeros({s.out_channels, s.in_channels, s.kernel, s.kernel});
+    // The output layer's one logit channel is broadcast into each of the SNN's channels.
+    const int64_t in_dim = transposed ? 0 : 1;
     if (first) {
       TORCH_CHECK(!transposed, "the first layer is a convolution");
       d.copy_(std::log(2.0) * w.narrow(1, 0, 2) + 0.5 * w.narrow(1, 2, 2));
-    } else if (transposed) {
-      // Input channels first: the predecessor's, then the skip's (left at zero).
-      for (int o = 0; o < s.out_channels; ++o)
-        d.narrow(0, 0, pred_in).narrow(1, o, 1).copy_(w.narrow(1, last ? 0 : o, 1));
     } else {
-      for (int o = 0; o < s.out_channels; ++o)
-        d.narrow(0, o, 1).narrow(1, 0, pred_in).copy_(w.narrow(0, last ? 0 : o, 1));
+      // Input channels first: the predecessor's, then the skip's (left at zero).
+      torch::Tensor block = d.narrow(in_dim, 0, pred_in);
+      block.copy_(last ? w.expand_as(block) : w);
     }
     out.push_back(d);
   }
