@@ -134,22 +134,49 @@ void IirStreamingLayer::step(int64_t t, const uint32_t* s, size_t n, std::vector
   }
 }
 
+namespace {
+// A unit's lanes for a compile-time channel count CT (0: not known): 16 when 16/CT positions
+// share a unit, CT otherwise.
+template <int CT>
+constexpr int unit_lanes() {
+  if constexpr (CT == 0)
+    return 0;
+  else
+    return CT < 16 && 16 % CT == 0 ? 16 : CT;
+}
+
+// with_channels() and 4-channel layers where a unit holds 4 positions (quarter-width
+// networks: their generic loops cost ~1.8x). 8 channels with 3x3 kernels keep one position per
+// unit (3 taps x 8 do not fit one vector): a constant trip count did not help them (measured).
+// Channel counts below 16 whose units are not 16 lanes (kernels too wide) take the generic loops.
+template <class F>
+SPIKEMS_INLINE void with_unit_channels(int c, int lanes, F&& f) {
+  if (c == 4 && lanes == 16)
+    f(std::integral_constant<int, 4>{});
+  else if (c < 16 && lanes != 16)
+    f(std::integral_constant<int, 0>{});
+  else
+    with_channels(c, std::forward<F>(f));
+}
+}  // namespace
+
 // One copy of the step per instruction set; -ffp-contract=off keeps a*b+c unfused in all,
 // so that results do not depend on the CPU.
 SPIKEMS_TARGET_AVX512 void IirStreamingLayer::step_avx512(int64_t t, const uint32_t* s, size_t n,
                                                           std::vector<uint32_t>& next) {
-  with_channels(cout_, [&](auto ct) SPIKEMS_INLINE_LAMBDA {
+  with_unit_channels(cout_, lanes_, [&](auto ct) SPIKEMS_INLINE_LAMBDA {
     step_ct<ct(), simd::Isa::Avx512>(t, s, n, next);
   });
 }
 SPIKEMS_TARGET_AVX2 void IirStreamingLayer::step_avx2(int64_t t, const uint32_t* s, size_t n,
                                                       std::vector<uint32_t>& next) {
-  with_channels(
-      cout_, [&](auto ct) SPIKEMS_INLINE_LAMBDA { step_ct<ct(), simd::Isa::Avx2>(t, s, n, next); });
+  with_unit_channels(cout_, lanes_, [&](auto ct) SPIKEMS_INLINE_LAMBDA {
+    step_ct<ct(), simd::Isa::Avx2>(t, s, n, next);
+  });
 }
 void IirStreamingLayer::step_default(int64_t t, const uint32_t* s, size_t n,
                                      std::vector<uint32_t>& next) {
-  with_channels(cout_, [&](auto ct) SPIKEMS_INLINE_LAMBDA {
+  with_unit_channels(cout_, lanes_, [&](auto ct) SPIKEMS_INLINE_LAMBDA {
     step_ct<ct(), simd::Isa::Default>(t, s, n, next);
   });
 }
@@ -177,7 +204,7 @@ SPIKEMS_INLINE void IirStreamingLayer::catch_up(uint32_t unit, int64_t t) {
   const int64_t d = t - last;
   if (d == 0) return;
   last = t;
-  constexpr int LT = CT == 0 ? 0 : (CT < 16 && 16 % CT == 0 ? 16 : CT);
+  constexpr int LT = unit_lanes<CT>();
   const int L = LT ? LT : lanes_;
   const float g = decay(d), gr = ref_decay(d), fd = float(d);
   float* __restrict a1 = record_of(unit, L);
@@ -198,7 +225,7 @@ SPIKEMS_INLINE void IirStreamingLayer::catch_up(uint32_t unit, int64_t t) {
 // active. For units that are not whole 16-lane vectors (advance_unit() does the others).
 template <int CT>
 SPIKEMS_INLINE bool IirStreamingLayer::update(uint32_t unit, int64_t t, uint32_t*& out) {
-  constexpr int LT = CT == 0 ? 0 : (CT < 16 && 16 % CT == 0 ? 16 : CT);
+  constexpr int LT = unit_lanes<CT>();
   const int L = LT ? LT : lanes_;
   const size_t o = size_t(unit) * size_t(L);
   const float g1 = decay(1), gr1 = ref_decay(1);
@@ -313,7 +340,7 @@ SPIKEMS_INLINE bool IirStreamingLayer::advance_unit(size_t unit, int64_t t, cons
 template <int CT, simd::Isa I>
 SPIKEMS_INLINE void IirStreamingLayer::step_ct(int64_t t, const uint32_t* spikes, size_t n,
                                                std::vector<uint32_t>& next) {
-  constexpr int LT = CT == 0 ? 0 : (CT < 16 && 16 % CT == 0 ? 16 : CT);
+  constexpr int LT = unit_lanes<CT>();
   if constexpr (LT != 0 && LT % 16 == 0 && LT <= 64) {
     if (fir_k_ > 0) {
       step_c<CT, I, true>(t, spikes, n, next);
@@ -326,7 +353,7 @@ SPIKEMS_INLINE void IirStreamingLayer::step_ct(int64_t t, const uint32_t* spikes
 template <int CT, simd::Isa I, bool kFir>
 SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes, size_t n,
                                               std::vector<uint32_t>& next) {
-  constexpr int LT = CT == 0 ? 0 : (CT < 16 && 16 % CT == 0 ? 16 : CT);
+  constexpr int LT = unit_lanes<CT>();
   constexpr bool kVector = LT != 0 && LT % 16 == 0;
   static_assert(!kFir || (kVector && LT <= 64), "FIR expiry needs whole vectors, <= 64 lanes");
   const size_t L = size_t(LT ? LT : lanes_);
@@ -351,7 +378,7 @@ SPIKEMS_INLINE void IirStreamingLayer::step_c(int64_t t, const uint32_t* spikes,
     else
       add_drive<CT, true>(spikes, at);
   };
-  if constexpr (CT == 0 || (CT < 16 && 16 % CT == 0)) {
+  if constexpr (CT == 0 || (CT < 16 && unit_lanes<CT>() == 16)) {
     if (unit_shift_ > 0)
       add_drive_units<CT, true>(spikes, at);  // L = 16 lanes per unit
     else

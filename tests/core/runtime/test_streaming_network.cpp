@@ -727,7 +727,8 @@ TEST(TaskPool, EveryTaskOncePerRun) {
 // transposed kernel, channel counts the runtime has no specialised code for (3, 5, 70: the
 // generic loops, more than 64 channels per position; 8: IIR units of two positions, the last
 // one half outside the 15x19 output; 2: units of 8 positions after a stride-2 convolution
-// without padding, whose last input row and column reach no output), FIR and IIR.
+// without padding, whose last input row and column reach no output; 2 with a 9x9 kernel: one
+// position per unit, 9 taps x 2 channels being more than a vector), FIR and IIR.
 TEST(StreamingNetwork, OtherGeometriesAndChannelCountsMatchDense) {
   for (auto disc : {Discretisation::FIR, Discretisation::IIR}) {
     ModelSpec m;
@@ -739,8 +740,8 @@ TEST(StreamingNetwork, OtherGeometriesAndChannelCountsMatchDense) {
     for (const Row& r :
          {Row{LayerKind::Conv, 2, 5, 5, 1, 2, 0}, Row{LayerKind::Conv, 5, 70, 3, 2, 1, 0},
           Row{LayerKind::ConvTranspose, 70, 3, 4, 2, 1, 0}, Row{LayerKind::Conv, 3, 8, 4, 1, 0, 0},
-          Row{LayerKind::ConvTranspose, 8, 4, 3, 2, 1, 1},
-          Row{LayerKind::Conv, 4, 2, 3, 2, 0, 0}}) {
+          Row{LayerKind::ConvTranspose, 8, 4, 3, 2, 1, 1}, Row{LayerKind::Conv, 4, 2, 3, 2, 0, 0},
+          Row{LayerKind::Conv, 2, 2, 9, 1, 4, 0}}) {
       m.layers.push_back(make_layer(r.kind, r.ci, r.co, r.k, r.s, r.p, r.op, disc));
     }
     std::mt19937 rng(21);
