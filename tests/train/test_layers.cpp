@@ -338,6 +338,59 @@ TEST(Loss, PotentialReadoutScoresTheLargestPotential) {
   EXPECT_THROW(bce_loss(u, in, mask, ex), std::exception);
 }
 
+// The off-event term: only pixels without input events whose logit is above -2 count, each
+// softplus(z), halved and divided by the moving pixels of the batch; exact gradients; pixels
+// with events, or far below the threshold, add nothing.
+TEST(Loss, OffEventTermCountsEventlessPixelsNearTheThreshold) {
+  torch::manual_seed(13);
+  const int64_t T = 4, B = 2, C = 2, H = 4, W = 5;
+  const torch::Tensor in = (torch::rand({T, B, C, H, W}, torch::kDouble) < 0.15).to(torch::kDouble);
+  const torch::Tensor mask = (torch::rand({B, H, W}, torch::kDouble) < 0.5).to(torch::kDouble);
+  const torch::Tensor u = torch::rand({T, B, 1, H, W}, torch::kDouble) * 0.5;
+  for (const bool potential : {true, false}) {
+    LossOptions o;
+    o.potential_readout = potential;
+    o.readout_theta = 0.22;
+    o.alpha = 3;
+    o.beta = 0.5;
+    double sum = 0, n_fg = 0, counted = 0, with_events_above = 0;
+    for (int64_t b = 0; b < B; ++b)
+      for (int64_t y = 0; y < H; ++y)
+        for (int64_t x = 0; x < W; ++x) {
+          const torch::Tensor ux = u.select(1, b).select(2, y).select(2, x);
+          const double P = potential ? ux.max().item<double>() / 0.22 : ux.sum().item<double>();
+          const double z = 3 * (P - (potential ? 1.0 : 0.5));
+          const double ev = in.select(1, b).select(2, y).select(2, x).sum().item<double>();
+          if (ev > 0 && mask[b][y][x].item<double>() > 0) n_fg += 1;
+          if (ev > 0) {
+            with_events_above += z > -2;
+            continue;
+          }
+          if (z <= -2) continue;
+          sum += std::log1p(std::exp(z));
+          counted += 1;
+        }
+    ASSERT_GT(n_fg, 0);
+    ASSERT_GT(counted, 0) << "the case must have event-less pixels near the threshold";
+    ASSERT_GT(with_events_above, 0) << "and pixels with events above it, which must not count";
+    EXPECT_NEAR(offevent_loss(u, in, mask, o).item<double>(), 0.5 * sum / n_fg, 1e-10);
+    EXPECT_LT(spikems::test::finite_difference_error(
+                  [&](const torch::Tensor& v) { return offevent_loss(v, in, mask, o); }, u),
+              1e-6);
+    // Far below the threshold everywhere: zero, with no gradient (no push towards silence).
+    torch::Tensor quiet = (u * 0 - 1).requires_grad_(true);
+    const torch::Tensor l = offevent_loss(quiet, in, mask, o);
+    l.backward();
+    EXPECT_EQ(l.item<double>(), 0.0);
+    EXPECT_EQ(quiet.grad().abs().max().item<double>(), 0.0);
+    // No moving pixel in the batch: divided by 1, not by 0.
+    EXPECT_NEAR(offevent_loss(u, in, torch::zeros_like(mask), o).item<double>(), 0.5 * sum, 1e-10);
+  }
+  LossOptions ex;
+  ex.projection = LossOptions::Projection::Exponential;
+  EXPECT_THROW(offevent_loss(u, in, mask, ex), std::exception);
+}
+
 TEST(Loss, BceAndVanRossumMatchTheirFormulasAndGradients) {
   torch::manual_seed(9);
   const int64_t T = 6, B = 2, C = 2, H = 3, W = 4;

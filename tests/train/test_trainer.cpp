@@ -49,6 +49,19 @@ const std::string& tiny_data() {
   return dir;
 }
 
+// `f` must throw an E whose message names every one of `needles`; `what` says what was wrongly
+// accepted otherwise.
+template <class E = std::exception, class F>
+void expect_refused(F&& f, std::initializer_list<std::string> needles, const std::string& what) {
+  try {
+    f();
+    ADD_FAILURE() << what << " was accepted";
+  } catch (const E& e) {
+    for (const auto& n : needles)
+      EXPECT_NE(std::string(e.what()).find(n), std::string::npos) << e.what();
+  }
+}
+
 std::vector<std::string> tiny_overrides(int steps) {
   const std::string d = tiny_data();
   return {"data.train=[{path=\"" + d + "\", split=\"train\"}]",
@@ -204,12 +217,8 @@ TEST(Trainer, PotentialReadoutLearnsAndSavesAnOutputWithoutRefractory) {
   // L_spike compares spike trains: refused with the potential readout, naming the key.
   auto bad = ov;
   bad.push_back("loss.kind=both");
-  try {
-    load_train_config(config_path(), bad);
-    ADD_FAILURE() << "loss.kind = both was accepted with the potential readout";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("loss.kind"), std::string::npos) << e.what();
-  }
+  expect_refused<Error>([&] { load_train_config(config_path(), bad); }, {"loss.kind"},
+                        "loss.kind = both with the potential readout");
 }
 
 // Runs `spikems train` as a child process and kills it with SIGKILL once its first checkpoint
@@ -362,6 +371,11 @@ TEST(Trainer, BadConfigsNameTheKey) {
                 .find("loss.rate_ceilings: each must lie above loss.rate_floor"),
             std::string::npos);
   EXPECT_NE(msg({"loss.teacher_weight=-1.0"}).find("loss.teacher_weight: must not be negative"),
+            std::string::npos);
+  EXPECT_NE(msg({"loss.offevent_weight=-1.0"}).find("loss.offevent_weight: must not be negative"),
+            std::string::npos);
+  EXPECT_NE(msg({"loss.offevent_weight=1.0", "loss.projection=\"exponential\""})
+                .find("loss.offevent_weight: needs loss.projection = \"sigmoid\""),
             std::string::npos);
   EXPECT_NE(msg({"loss.attention_weight=1.0"}).find("loss.teacher: needs an ANN-2D model file"),
             std::string::npos);
@@ -552,12 +566,8 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   auto deeper = av;
   deeper.push_back("model.channels=[4, 8]");
   deeper.push_back("model.init_rates=[0.1, 0.1, 0.1, 0.1]");
-  try {
-    train_quietly(deeper, student + "-att2");
-    ADD_FAILURE() << "a teacher of another depth was accepted for attention transfer";
-  } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("loss.attention_weight"), std::string::npos) << e.what();
-  }
+  expect_refused([&] { train_quietly(deeper, student + "-att2"); }, {"loss.attention_weight"},
+                 "a teacher of another depth for attention transfer");
   const auto fv = transfer_only("feature", "attention", student + "-feat");
   // Started from the teacher's own weights (model.init_ann), the hidden layers begin nearer the
   // teacher's activity than from random weights.
@@ -570,46 +580,25 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   // A missing ANN file is refused before any data is read, naming the key.
   auto missing = fv;
   missing.push_back("model.init_ann=" + dir + "/no-such.safetensors");
-  try {
-    train_quietly(missing, student + "-feat-missing");
-    ADD_FAILURE() << "a missing model.init_ann file was accepted";
-  } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("model.init_ann"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("no-such.safetensors"), std::string::npos) << e.what();
-  }
+  expect_refused([&] { train_quietly(missing, student + "-feat-missing"); },
+                 {"model.init_ann", "no-such.safetensors"}, "a missing model.init_ann file");
   // The same depth with other channels pairs layers but not channels: refused, naming the key.
   auto narrower = fv;
   narrower.push_back("model.channels=[16, 32, 32]");
-  try {
-    train_quietly(narrower, student + "-feat2");
-    ADD_FAILURE() << "a teacher with other channels was accepted for feature transfer";
-  } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("loss.feature_weight"), std::string::npos) << e.what();
-  }
+  expect_refused([&] { train_quietly(narrower, student + "-feat2"); }, {"loss.feature_weight"},
+                 "a teacher with other channels for feature transfer");
   // A teacher that is not an ANN-2D (the student's own file) is refused, naming the key.
   auto bad = sv;
   bad.push_back("loss.teacher=" + student + "/model.safetensors");
-  try {
-    train_quietly(bad, student + "2");
-    ADD_FAILURE() << "an SNN teacher was accepted";
-  } catch (const std::exception& e) {
-    EXPECT_NE(std::string(e.what()).find("loss.teacher"), std::string::npos) << e.what();
-  }
+  expect_refused([&] { train_quietly(bad, student + "2"); }, {"loss.teacher"}, "an SNN teacher");
   // Nor one whose step is not a whole multiple of the run's (its event frame cannot be made
   // from the run's bins): finer, or 1 ms against 0.4 ms.
   for (const char* step : {"2", "0.4"}) {
     auto other_step = sv;
     other_step.push_back(std::string("sample.step_ms=") + step);
-    try {
-      train_quietly(other_step, student + "3");
-      ADD_FAILURE() << "a teacher of 1 ms steps was accepted for " << step << " ms steps";
-    } catch (const std::exception& e) {
-      EXPECT_NE(std::string(e.what()).find(std::string("trained with 1 ms steps, this run's "
-                                                       "sample.step_ms is ") +
-                                           step),
-                std::string::npos)
-          << e.what();
-    }
+    expect_refused([&] { train_quietly(other_step, student + "3"); },
+                   {std::string("trained with 1 ms steps, this run's sample.step_ms is ") + step},
+                   std::string("a teacher of 1 ms steps for ") + step + " ms steps");
   }
   // A teacher of coarser steps is re-binned: the same ANN teaches a student at 0.5 ms steps
   // (its frame merges the student's steps in pairs) and the distillation still falls.
@@ -661,6 +650,35 @@ TEST(Trainer, PerLayerRateBoundsEnterTheActivityTerm) {
   }
   EXPECT_GT(over_ceiling, 0) << "no layer fired above its ceiling: that part tested nothing";
   EXPECT_GT(under_floor, 0) << "no layer fired below its floor: that part tested nothing";
+}
+
+// loss.offevent_weight: the term is logged and enters the loss with its weight (the loss is the
+// sum of the logged terms, each times its weight from the run's config.json).
+TEST(Trainer, OffEventTermIsLoggedAndWeighted) {
+  const std::string dir = scratch_dir() + "/run";
+  auto ov = tiny_overrides(4);
+  ov.push_back("loss.offevent_weight=2.0");
+  EXPECT_EQ(train_quietly(ov, dir).steps, 4);
+  std::ifstream f(dir + "/config.json");
+  const nlohmann::json cfg = nlohmann::json::parse(f);
+  const double lambda = cfg["loss"]["lambda"].get<double>();
+  const double iou_w = cfg["loss"]["iou_weight"].get<double>();
+  ASSERT_EQ(cfg["loss"]["offevent_weight"].get<double>(), 2.0);
+  const auto lines = read_log(dir, "train");
+  ASSERT_EQ(lines.size(), 4u);
+  int positive = 0;
+  for (const auto& line : lines) {
+    ASSERT_TRUE(line.contains("offevent")) << line.dump();
+    const double off = line["offevent"].get<double>();
+    EXPECT_GE(off, 0.0);
+    positive += off > 0;
+    const double sum = line["bce"].get<double>() + lambda * line["spike"].get<double>() +
+                       iou_w * line["soft_iou_loss"].get<double>() +
+                       line["activity"].get<double>() + 2.0 * off;
+    EXPECT_NEAR(line["loss"].get<double>(), sum, 1e-5 * std::max(1.0, sum))
+        << "step " << line["step"];
+  }
+  EXPECT_GT(positive, 0) << "no event-less pixel near the threshold: the case tested nothing";
 }
 
 TEST(Trainer, NonFiniteLossStopsNamingTheStep) {

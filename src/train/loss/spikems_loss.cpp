@@ -75,6 +75,24 @@ torch::Tensor bce_loss(const torch::Tensor& out, const torch::Tensor& input,
   return (l * had).sum() / torch::clamp_min(n, 1.0);
 }
 
+torch::Tensor offevent_loss(const torch::Tensor& out, const torch::Tensor& input,
+                            const torch::Tensor& fg_mask, const LossOptions& o) {
+  TORCH_CHECK(
+      out.size(1) == input.size(1) && out.size(3) == input.size(3) && out.size(4) == input.size(4),
+      "loss: output and input must share batch and pixel grid (use align_to_input)");
+  TORCH_CHECK(o.projection == LossOptions::Projection::Sigmoid,
+              "loss: the off-event term needs the sigmoid projection");
+  const torch::Tensor z =
+      o.alpha * (output_projection(out, o) - (o.potential_readout ? 1.0 : o.beta));  // [B, H, W]
+  const torch::Tensor off =
+      (input.detach().sum(std::vector<int64_t>{0, 2}) == 0).to(out.dtype());  // no events
+  const torch::Tensor n_fg =
+      (foreground_target(input.detach(), fg_mask).sum(std::vector<int64_t>{0, 2}) > 0).sum();
+  const torch::Tensor near = (z.detach() > -2.0).to(out.dtype());
+  return 0.5 * (torch::softplus(z) * off * near).sum() /
+         torch::clamp_min(n_fg.to(out.dtype()), 1.0);
+}
+
 torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input,
                             const torch::Tensor& fg_mask, const LossOptions& o) {
   TORCH_CHECK(

@@ -63,6 +63,18 @@ torch::Tensor output_projection(const torch::Tensor& out, const LossOptions& o);
 torch::Tensor projection_probability(const torch::Tensor& counts, const LossOptions& o);
 torch::Tensor bce_loss(const torch::Tensor& out, const torch::Tensor& input,
                        const torch::Tensor& fg_mask, const LossOptions& o);
+// Off-event false positives (beyond the paper): the plain IoU counts every output spike at a
+// pixel where no input event fell as a false positive (G holds event pixels only), while the
+// balanced L_bce weighs such a pixel 1/(2 n_bg), ~100 k background pixels sharing one half,
+// so a decoder that spreads its answer a pixel or two around the events it labels pays almost
+// nothing for it. This term weighs each such pixel as L_bce weighs a moving one:
+// L = 1/2 sum over pixels without input events whose logit z = alpha (P - c) > -2 (within
+// reach of the threshold; c = 1 for the potential readout, beta for spike counts) of
+// softplus(z), divided by the number of moving pixels of the batch (at least 1). Silent
+// pixels far below the threshold add nothing, so it does not push the whole map to silence.
+// Sigmoid projection only.
+torch::Tensor offevent_loss(const torch::Tensor& out, const torch::Tensor& input,
+                            const torch::Tensor& fg_mask, const LossOptions& o);
 torch::Tensor van_rossum_loss(const torch::Tensor& out, const torch::Tensor& target,
                               const LossOptions& o);
 // Soft IoU (Jaccard), beyond the paper: the evaluation's metric made differentiable, immune to

@@ -264,6 +264,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("loss", "teacher_weight", c.teacher_weight);
   b.bind("loss", "attention_weight", c.attention_weight);
   b.bind("loss", "feature_weight", c.feature_weight);
+  b.bind("loss", "offevent_weight", c.offevent_weight);
   b.bind("loss", "projection", c.projection);
   b.bind("loss", "alpha", c.alpha);
   b.bind("loss", "beta", c.beta);
@@ -369,6 +370,11 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.attention_weight > 0 && c.type == "ann2d")
     b.bad("loss", "attention_weight", "transfers into the spiking network: model.type = \"snn\"");
   if (!(c.feature_weight >= 0)) b.bad("loss", "feature_weight", "must not be negative");
+  if (!(c.offevent_weight >= 0)) b.bad("loss", "offevent_weight", "must not be negative");
+  if (c.offevent_weight > 0 && c.projection != "sigmoid")
+    b.bad("loss", "offevent_weight", "needs loss.projection = \"sigmoid\"");
+  if (c.offevent_weight > 0 && c.type == "ann2d")
+    b.bad("loss", "offevent_weight", "applies to the spiking network: model.type = \"snn\"");
   if (c.feature_weight > 0 && c.teacher.empty())
     b.bad("loss", "teacher", "needs an ANN-2D model file when loss.feature_weight > 0");
   if (c.feature_weight > 0 && c.type == "ann2d")

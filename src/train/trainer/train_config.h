@@ -65,6 +65,9 @@ struct TrainConfig {
   // Feature transfer (spikems_loss.h, feature_transfer_loss): each hidden layer's activity
   // matched channel by channel to the teacher's (0: off).
   double feature_weight = 0;
+  // Off-event false positives (spikems_loss.h, offevent_loss): output at pixels without input
+  // events weighed as L_bce weighs a moving pixel (0: off).
+  double offevent_weight = 0;
   // Whether any term needs `teacher` (distillation, attention or feature transfer).
   bool uses_teacher() const {
     return teacher_weight > 0 || attention_weight > 0 || feature_weight > 0;

@@ -91,6 +91,7 @@ struct StepOutput {
   torch::Tensor total, bce, spike, iou, activity, distill;
   torch::Tensor attention;  // loss.attention_weight's term (unweighted)
   torch::Tensor feature;    // loss.feature_weight's term (unweighted)
+  torch::Tensor offevent;   // loss.offevent_weight's term (unweighted)
   // The distillation's floor: the teacher's own mean binary entropy over the pixels with
   // events, what `distill` would be for a student that matched it exactly.
   torch::Tensor distill_floor;
@@ -125,6 +126,7 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
   o.bce = use_bce ? bce_loss(scored, in, fg, lo) : zero;
   o.spike = use_spike ? van_rossum_loss(out, foreground_target(in, fg), lo) : zero;
   o.iou = iou_w > 0 ? soft_iou_loss(scored, in, fg, lo) : zero;
+  o.offevent = c.offevent_weight > 0 ? offevent_loss(scored, in, fg, lo) : zero;
   o.activity = zero;
   for (size_t k = 0; k < layers.size(); ++k) {
     // Over the window only: in the warm-up the deep layers are still filling up (each adds
@@ -172,7 +174,7 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
   }
   o.total = o.bce + lo.lambda * o.spike + iou_w * o.iou + o.activity +
             c.teacher_weight * o.distill + c.attention_weight * o.attention +
-            c.feature_weight * o.feature;
+            c.feature_weight * o.feature + c.offevent_weight * o.offevent;
   o.out_window = out;
   o.fg_window = fg;
   o.in_window = in;
@@ -197,7 +199,7 @@ StepOutput ann_forward_loss(Ann2dNetwork& net, const BatchTensors& bt, const Tra
   o.bce = c.loss == "iou" ? zero : l.bce;
   o.iou = l.iou;
   o.spike = o.activity = o.distill = o.distill_floor = o.distill_const = o.attention = o.feature =
-      zero;
+      o.offevent = zero;
   o.total = o.bce + iou_w * o.iou;
   for (const auto& a : layers)
     o.rates.push_back((a.detach() > 0).to(torch::kFloat).mean().item<double>());
@@ -636,6 +638,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   WindowScores train_ws;
   double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_soft_iou = 0, sum_act = 0, sum_distill = 0;
   double sum_distill_floor = 0, sum_distill_const = 0, sum_attention = 0, sum_feature = 0;
+  double sum_offevent = 0;
   double sum_comm = 0;  // seconds in collectives, waiting for the slowest rank included
   std::vector<double> sum_rates(net.size(), 0.0);
   std::vector<double> sum_grad;  // per parameter tensor, summed over the log interval
@@ -670,11 +673,11 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     // This rank's numbers for the log, gathered from every rank before the backward pass so
     // that a non-finite loss anywhere stops every rank before any weight changes:
     // [loss terms x10, rates, interrupted, then (intersection, predicted, truth) per window].
-    std::vector<double> mine = {o.total.item<double>(),         o.bce.item<double>(),
-                                o.spike.item<double>(),         o.iou.item<double>(),
-                                o.activity.item<double>(),      o.distill.item<double>(),
-                                o.distill_floor.item<double>(), o.distill_const.item<double>(),
-                                o.attention.item<double>(),     o.feature.item<double>()};
+    std::vector<double> mine = {
+        o.total.item<double>(),         o.bce.item<double>(),           o.spike.item<double>(),
+        o.iou.item<double>(),           o.activity.item<double>(),      o.distill.item<double>(),
+        o.distill_floor.item<double>(), o.distill_const.item<double>(), o.attention.item<double>(),
+        o.feature.item<double>(),       o.offevent.item<double>()};
     mine.insert(mine.end(), o.rates.begin(), o.rates.end());
     mine.push_back(world > 1 && (interrupted() || out_of_time()) ? 1.0 : 0.0);
     for (const auto& m :
@@ -684,7 +687,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     const std::vector<double> all = dist.all_gather(mine);
     double comm_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_comm).count();
-    constexpr size_t kTerms = 10;
+    constexpr size_t kTerms = 11;
     const size_t per_rank = mine.size(), head = kTerms + n_rates;
     // Each rank's loss is the mean over its share; the run's loss is the mean over the ranks
     // (the same number a single process computes for losses that are means over samples).
@@ -746,6 +749,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     sum_distill_const += terms[7];
     sum_attention += terms[8];
     sum_feature += terms[9];
+    sum_offevent += terms[10];
     for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += terms[kTerms + k];
     ++in_sum;
     st.wall_seconds =
@@ -785,10 +789,11 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
       }
       if (c.attention_weight > 0) line["attention"] = sum_attention / in_sum;
       if (c.feature_weight > 0) line["feature"] = sum_feature / in_sum;
+      if (c.offevent_weight > 0) line["offevent"] = sum_offevent / in_sum;
       log_line(line);
       res.wall_seconds = st.wall_seconds;
       sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = sum_distill = sum_comm = 0;
-      sum_distill_floor = sum_distill_const = sum_attention = sum_feature = 0;
+      sum_distill_floor = sum_distill_const = sum_attention = sum_feature = sum_offevent = 0;
       std::fill(sum_rates.begin(), sum_rates.end(), 0.0);
       std::fill(sum_grad.begin(), sum_grad.end(), 0.0);
       in_sum = 0;
