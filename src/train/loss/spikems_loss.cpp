@@ -12,9 +12,18 @@ torch::Tensor mask5(const torch::Tensor& m) {
   TORCH_CHECK(m.dim() == 3 || m.dim() == 4, "loss: fg_mask must be [B, H, W] or [T, B, H, W]");
   return m.dim() == 3 ? m.unsqueeze(0).unsqueeze(2) : m.unsqueeze(2);
 }
+// 1 at the pixels [B, H, W] where input [T, B, C, H, W] has any event, else 0 (no gradient).
+torch::Tensor event_pixels(const torch::Tensor& input, torch::Dtype dtype) {
+  return (input.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(dtype);
+}
+// 1 at the pixels [B, H, W] with a moving input event (L_bce's y), else 0 (no gradient).
+torch::Tensor moving_pixels(const torch::Tensor& input, const torch::Tensor& fg_mask,
+                            torch::Dtype dtype) {
+  return (foreground_target(input.detach(), fg_mask).sum(std::vector<int64_t>{0, 2}) > 0).to(dtype);
+}
 // The mean of a per-pixel value [B, H, W] over the pixels where input [T, B, C, H, W] has events.
 torch::Tensor mean_over_event_pixels(const torch::Tensor& v, const torch::Tensor& input) {
-  const torch::Tensor had = (input.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(v.dtype());
+  const torch::Tensor had = event_pixels(input, v.scalar_type());
   return (v * had).sum() / torch::clamp_min(had.sum(), 1.0);
 }
 }  // namespace
@@ -49,11 +58,8 @@ torch::Tensor bce_loss(const torch::Tensor& out, const torch::Tensor& input,
       out.size(1) == input.size(1) && out.size(3) == input.size(3) && out.size(4) == input.size(4),
       "loss: output and input must share batch and pixel grid (use align_to_input)");
   torch::Tensor P = output_projection(out, o);  // [B, H, W]
-  torch::Tensor had =
-      (input.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(out.dtype());  // pixels with events
-  torch::Tensor fg =
-      (foreground_target(input.detach(), fg_mask).sum(std::vector<int64_t>{0, 2}) > 0)
-          .to(out.dtype());
+  torch::Tensor had = event_pixels(input, out.scalar_type());
+  torch::Tensor fg = moving_pixels(input, fg_mask, out.scalar_type());
   torch::Tensor l;
   if (o.projection == LossOptions::Projection::Sigmoid) {
     torch::Tensor z = o.alpha * (P - (o.potential_readout ? 1.0 : o.beta));
@@ -84,13 +90,10 @@ torch::Tensor offevent_loss(const torch::Tensor& out, const torch::Tensor& input
               "loss: the off-event term needs the sigmoid projection");
   const torch::Tensor z =
       o.alpha * (output_projection(out, o) - (o.potential_readout ? 1.0 : o.beta));  // [B, H, W]
-  const torch::Tensor off =
-      (input.detach().sum(std::vector<int64_t>{0, 2}) == 0).to(out.dtype());  // no events
-  const torch::Tensor n_fg =
-      (foreground_target(input.detach(), fg_mask).sum(std::vector<int64_t>{0, 2}) > 0).sum();
+  const torch::Tensor off = 1 - event_pixels(input, out.scalar_type());
+  const torch::Tensor n_fg = moving_pixels(input, fg_mask, out.scalar_type()).sum();
   const torch::Tensor near = (z.detach() > -2.0).to(out.dtype());
-  return 0.5 * (torch::softplus(z) * off * near).sum() /
-         torch::clamp_min(n_fg.to(out.dtype()), 1.0);
+  return 0.5 * (torch::softplus(z) * off * near).sum() / torch::clamp_min(n_fg, 1.0);
 }
 
 torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input,
@@ -100,9 +103,8 @@ torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input
       "loss: output and input must share batch and pixel grid (use align_to_input)");
   torch::Tensor p = o.potential_readout ? projection_probability(output_projection(out, o), o)
                                         : -torch::expm1(-spike_projection(out, o.ts) / o.kappa);
-  if (o.gate_events) p = p * (input.detach().sum(std::vector<int64_t>{0, 2}) > 0).to(out.dtype());
-  torch::Tensor y = (foreground_target(input.detach(), fg_mask).sum(std::vector<int64_t>{0, 2}) > 0)
-                        .to(out.dtype());
+  if (o.gate_events) p = p * event_pixels(input, out.scalar_type());
+  torch::Tensor y = moving_pixels(input, fg_mask, out.scalar_type());
   const std::vector<int64_t> px{1, 2};
   torch::Tensor inter = (p * y).sum(px), uni = (p + y - p * y).sum(px);
   // Only samples with moving objects, as the metric skips windows without them: counted with

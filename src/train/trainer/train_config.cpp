@@ -370,15 +370,15 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.attention_weight > 0 && c.type == "ann2d")
     b.bad("loss", "attention_weight", "transfers into the spiking network: model.type = \"snn\"");
   if (!(c.feature_weight >= 0)) b.bad("loss", "feature_weight", "must not be negative");
+  if (c.feature_weight > 0 && c.teacher.empty())
+    b.bad("loss", "teacher", "needs an ANN-2D model file when loss.feature_weight > 0");
+  if (c.feature_weight > 0 && c.type == "ann2d")
+    b.bad("loss", "feature_weight", "transfers into the spiking network: model.type = \"snn\"");
   if (!(c.offevent_weight >= 0)) b.bad("loss", "offevent_weight", "must not be negative");
   if (c.offevent_weight > 0 && c.projection != "sigmoid")
     b.bad("loss", "offevent_weight", "needs loss.projection = \"sigmoid\"");
   if (c.offevent_weight > 0 && c.type == "ann2d")
     b.bad("loss", "offevent_weight", "applies to the spiking network: model.type = \"snn\"");
-  if (c.feature_weight > 0 && c.teacher.empty())
-    b.bad("loss", "teacher", "needs an ANN-2D model file when loss.feature_weight > 0");
-  if (c.feature_weight > 0 && c.type == "ann2d")
-    b.bad("loss", "feature_weight", "transfers into the spiking network: model.type = \"snn\"");
   one_of(b, "loss", "projection", c.projection, {"sigmoid", "exponential"});
   if (c.lambda < 0) b.bad("loss", "lambda", "must not be negative");
   if (c.activity_weight < 0) b.bad("loss", "activity_weight", "must not be negative");

@@ -672,7 +672,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     StepOutput o = net.step(bt, c, lo, ts);
     // This rank's numbers for the log, gathered from every rank before the backward pass so
     // that a non-finite loss anywhere stops every rank before any weight changes:
-    // [loss terms x10, rates, interrupted, then (intersection, predicted, truth) per window].
+    // [loss terms x11, rates, interrupted, then (intersection, predicted, truth) per window].
     std::vector<double> mine = {
         o.total.item<double>(),         o.bce.item<double>(),           o.spike.item<double>(),
         o.iou.item<double>(),           o.activity.item<double>(),      o.distill.item<double>(),
