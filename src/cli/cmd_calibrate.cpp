@@ -6,6 +6,7 @@
 #include "cli/command.h"
 #include "core/eval/calibration.h"
 #include "core/eval/window_list.h"
+#include "core/model/output_gate.h"
 #include "core/model/output_threshold.h"
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
@@ -16,7 +17,7 @@ using namespace spikems;
 namespace fs = std::filesystem;
 
 struct Args {
-  std::string model, out, split = "val", factors, window = "20", criterion = "event-iou";
+  std::string model, out, split = "val", factors, gates, window = "20", criterion = "event-iou";
   std::vector<std::string> data;
   double max_seconds = 0;
   int threads = 1;
@@ -31,6 +32,7 @@ void run(const Args& a) {
   cli::check_split(a.split);
   o.split = a.split;
   if (!a.factors.empty()) o.factors = parse_threshold_scales(a.factors, "--factors");
+  if (!a.gates.empty()) o.gates_us = parse_gate_list_ms(a.gates, "--gates");
   const std::vector<int64_t> w = parse_window_list_ms(a.window);
   if (w.size() != 1) fail("--window", "", "give one window length (ms), e.g. 20");
   o.window_us = w[0];
@@ -48,8 +50,9 @@ void run(const Args& a) {
   std::fputs(calibration_table(o, r).c_str(), stdout);
   std::fflush(stdout);
   if (!a.quiet)
-    std::fprintf(stderr, "wrote %s: output threshold x %g (%s %.1f %%)\n", a.out.c_str(),
-                 r.points[r.best].factor, o.criterion.c_str(), r.points[r.best].score);
+    std::fprintf(stderr, "wrote %s: output threshold x %g, output gate %g ms (%s %.1f %%)\n",
+                 a.out.c_str(), r.points[r.best].factor, r.points[r.best].gate_ms,
+                 o.criterion.c_str(), r.points[r.best].score);
 }
 
 void add(CLI::App& app) {
@@ -76,6 +79,10 @@ void add(CLI::App& app) {
   cmd->add_option("--factors", a.factors,
                   "Factors on the output threshold to try, comma-separated (default "
                   "0.9,0.95,1,1.05,1.1,1.15,1.2,1.25,1.3,1.4)");
+  cmd->add_option("--gates", a.gates,
+                  "Output gates to try with every factor, ms (0 = none; e.g. 0,10,20,30): an "
+                  "output spike counts only where its pixel had an input event that recently; the "
+                  "best pair is kept (default: the model's own gate)");
   cmd->add_option("--criterion", a.criterion,
                   "event-iou: TP/(TP+FP+FN) over all events of the windows (per-event labels); "
                   "iou: the mean window IoU")

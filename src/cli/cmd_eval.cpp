@@ -8,6 +8,7 @@
 #include "core/eval/evaluation.h"
 #include "core/eval/window_list.h"
 #include "core/model/default_model.h"
+#include "core/model/output_gate.h"
 #include "core/model/output_threshold.h"
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
@@ -17,7 +18,7 @@ namespace {
 using namespace spikems;
 
 struct Args {
-  std::string windows = "20,100", split = "test", out, kalman, boxes, thresholds;
+  std::string windows = "20,100", split = "test", out, kalman, boxes, thresholds, gates;
   std::vector<std::string> models, data, baselines;
   int threads = 1;
   bool iir = false, quiet = false, gate_events = false, static_scene = false;
@@ -38,6 +39,7 @@ void run(const Args& a) {
   if (!a.kalman.empty()) o.kalman_us = parse_window_list_ms(a.kalman);
   if (!a.thresholds.empty())
     o.output_thresholds = parse_threshold_scales(a.thresholds, "--output-thresholds");
+  if (!a.gates.empty()) o.output_gates_us = parse_gate_list_ms(a.gates, "--output-gates");
   o.threads = a.threads;
   o.iir = a.iir;
   o.gate_events = a.gate_events;
@@ -118,6 +120,10 @@ void add(CLI::App& app) {
   cmd->add_option("--output-thresholds", a.thresholds,
                   "Score each model at these factors on its output layer's threshold (e.g. "
                   "1,1.1,1.2,1.3): a row per factor and a precision-recall plot in the report");
+  cmd->add_option("--output-gates", a.gates,
+                  "Score each model with these output gates (ms, 0 = none; e.g. 0,10,20): an "
+                  "output spike counts only where its pixel had an input event that recently "
+                  "(docs/model-format.md, \"Output gate\"); a row per gate (and factor)");
   cmd->add_option("--threads", a.threads,
                   "Threads inside the network (the layers of a step run in parallel)")
       ->check(CLI::Range(1, 256));

@@ -17,6 +17,7 @@
 #include "core/events/io.h"
 #include "core/model/default_model.h"
 #include "core/model/model_file.h"
+#include "core/model/output_gate.h"
 #include "core/model/output_threshold.h"
 #include "core/runtime/kalman_tracker.h"
 #include "core/runtime/segmenter.h"
@@ -41,6 +42,7 @@ struct Args {
   int64_t step_us = 0;
   int tolerance = 3;
   double output_threshold = 1;
+  std::string output_gate;  // ms; empty = the model's own
   cli::ReadFlags read;
 };
 
@@ -177,6 +179,11 @@ void run(const Args& a) {
   if (a.iir) model = with_iir_neurons(std::move(model), a.model);
   if (a.output_threshold != 1)
     model = with_output_threshold(std::move(model), a.output_threshold, "--output-threshold");
+  if (!a.output_gate.empty()) {
+    const std::vector<int64_t> g = parse_gate_list_ms(a.output_gate, "--output-gate");
+    if (g.size() != 1) fail("--output-gate", "", "give one duration in ms, e.g. 20 (0 = none)");
+    model = with_output_gate(std::move(model), g[0], "--output-gate");
+  }
   ReadOptions ro;
   ro.sort = a.read.sort;
   ro.time_unit = a.read.time_unit;
@@ -347,6 +354,9 @@ void add(CLI::App& app) {
                   "Factor on the output layer's threshold: > 1 labels fewer events moving "
                   "(choose it with eval --output-thresholds on validation data)")
       ->default_val(1.0);
+  cmd->add_option("--output-gate", a.output_gate,
+                  "Output gate in ms (0 = none; default: the model's own): output spikes count "
+                  "only at pixels with an input event that recently (docs/model-format.md)");
   cmd->add_option("--threads", a.threads,
                   "Threads: the layers of each step run in parallel (at most one per layer)")
       ->check(CLI::Range(1, 256));

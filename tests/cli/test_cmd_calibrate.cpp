@@ -32,17 +32,24 @@ std::string write_lines(const std::string& dir, bool labelled_moving = true) {
   return p;
 }
 
+// The analytic case in a scratch folder: the model (OFF weight 1, ON 0.5) and the lines.
+struct LinesCase {
+  std::string dir = scratch_dir(), model = dir + "/m.safetensors", data = write_lines(dir);
+  LinesCase() { save_model(model, test::pointwise_model({1.f, 0.f, 0.f, 0.5f}, "lines")); }
+  // `spikems calibrate --quiet` on it with `args`; its output in `out`.
+  int calibrate(const std::string& args, std::string& out) const {
+    return run_command(
+        spikems_binary() + " calibrate --quiet --model " + model + " --data " + data + " " + args,
+        &out);
+  }
+};
+
 TEST(CalibrateCli, KeepsTheFactorWithTheBestEventIoUAndRecordsIt) {
-  const std::string d = scratch_dir();
-  const std::string model = d + "/m.safetensors", data = write_lines(d);
-  save_model(model, test::pointwise_model({1.f, 0.f, 0.f, 0.5f}, "lines"));
+  const LinesCase lc;
+  const std::string &d = lc.dir, &model = lc.model, &data = lc.data;
   std::string out;
   const std::string cal = d + "/cal.safetensors";
-  ASSERT_EQ(run_command(spikems_binary() + " calibrate --quiet --model " + model + " --data " +
-                            data + " --factors 1,2,3,4,5 --window 10 --out " + cal,
-                        &out),
-            0)
-      << out;
+  ASSERT_EQ(lc.calibrate("--factors 1,2,3,4,5 --window 10 --out " + cal, out), 0) << out;
   // The event columns (event IoU, P, R, moving) of each factor's row; the window IoU column
   // is left out (the output lags a step or two, so some spikes count in the next window).
   auto row = [&](const std::string& factor) {
@@ -89,6 +96,51 @@ TEST(CalibrateCli, KeepsTheFactorWithTheBestEventIoUAndRecordsIt) {
   EXPECT_EQ(m2.training.at("calibration").at("output_threshold_scale").get<double>(), 3.0);
 }
 
+// --gates: each output gate with each factor. The model answers an event a step or more after
+// it, at its pixel, and no pixel sees a second event, so a 1 ms gate (the output's own step)
+// drops every output (event IoU 0 at any factor), while 5 ms covers the steps labels are read
+// from (latency + 3) and scores as no gate does. With gates 1 and 5 the pair (3, 5 ms) wins and
+// the model is written with that gate; with 0 and 5 they tie and the shorter, none, is kept.
+TEST(CalibrateCli, GatesAreTriedWithEveryFactorAndTheBestPairKept) {
+  const LinesCase lc;
+  const std::string &d = lc.dir, &data = lc.data;
+  std::string out;
+  const std::string cal = d + "/cal.safetensors";
+  ASSERT_EQ(lc.calibrate("--factors 1,3 --gates 5,1 --window 10 --out " + cal, out), 0) << out;
+  auto row = [&](const std::string& factor_gate) {  // from the event IoU on
+    const size_t at = out.find("\n| " + factor_gate + " | ");
+    if (at == std::string::npos) return std::string("no row");
+    const std::string line = out.substr(at + 1, out.find('\n', at + 1) - at - 1);
+    size_t p = 0;
+    for (int i = 0; i < 3; ++i) p = line.find(" | ", p) + 3;
+    return line.substr(p - 3);
+  };
+  EXPECT_NE(out.find("| factor | gate ms |"), std::string::npos) << out;
+  EXPECT_EQ(row("1 | 1"), " | 0.0 | 0.0 | 0.0 | 0.0 |  |") << out;
+  EXPECT_EQ(row("3 | 1"), " | 0.0 | 0.0 | 0.0 | 0.0 |  |") << out;
+  EXPECT_EQ(row("1 | 5"), " | 50.0 | 50.0 | 100.0 | 100.0 |  |") << out;
+  EXPECT_EQ(row("3 | 5"), " | 100.0 | 100.0 | 100.0 | 50.0 | chosen (event-iou) |") << out;
+  const ModelSpec m = load_model(cal);
+  EXPECT_EQ(m.output_gate_steps, 5);
+  const auto& c = m.training.at("calibration");
+  EXPECT_EQ(c.at("factor").get<double>(), 3.0);
+  EXPECT_EQ(c.at("output_gate_ms").get<double>(), 5.0);
+  ASSERT_EQ(c.at("points").size(), 4u);
+  EXPECT_EQ(c.at("points")[0].at("output_gate_ms").get<double>(), 1.0);  // by gate, then factor
+  ASSERT_EQ(
+      lc.calibrate("--factors 3 --gates 5,0 --window 10 --out " + d + "/tie.safetensors", out), 0)
+      << out;
+  EXPECT_EQ(row("3 | 0"), " | 100.0 | 100.0 | 100.0 | 50.0 | chosen (event-iou) |") << out;
+  EXPECT_EQ(load_model(d + "/tie.safetensors").output_gate_steps, 0);
+  // Calibrated again without --gates: the gate stays.
+  ASSERT_EQ(run_command(spikems_binary() + " calibrate --quiet --model " + cal + " --data " + data +
+                            " --factors 1 --window 10 --out " + d + "/again.safetensors",
+                        &out),
+            0)
+      << out;
+  EXPECT_EQ(load_model(d + "/again.safetensors").output_gate_steps, 5);
+}
+
 TEST(CalibrateCli, BadInputStopsWithAClearMessageAndWritesNothing) {
   const std::string d = scratch_dir();
   const std::string model = d + "/m.safetensors", data = write_lines(d);
@@ -106,6 +158,8 @@ TEST(CalibrateCli, BadInputStopsWithAClearMessageAndWritesNothing) {
   fails(m + " --factors 1,0 --out " + o, "--factors");
   fails(m + " --window 10,20 --out " + o, "one window length");
   fails(m + " --split dev --out " + o, "'dev' is not a split");
+  fails(m + " --gates 0,-1 --out " + o, "--gates");
+  fails(m + " --gates 0.5 --out " + o, "whole number");
   fails("--model " + d + "/none.safetensors --data " + data + " --out " + o, "none.safetensors");
   // Nothing moves in these data: no window to score.
   const std::string still = d + "/still";

@@ -327,7 +327,7 @@ TEST_F(EvalCli, StaticSceneScoresTheShareOfEventsCalledMoving) {
   EXPECT_DOUBLE_EQ(share[2], 100.0);  // every event moving
   EXPECT_NE(out.find("moving %"), std::string::npos) << out;
   EXPECT_NE(slurp(o + "/results.md").find("static scene"), std::string::npos);
-  EXPECT_NE(slurp(o + "/results.csv").find(",moving_share,output_threshold_scale\n"),
+  EXPECT_NE(slurp(o + "/results.csv").find(",moving_share,output_threshold_scale,output_gate_ms\n"),
             std::string::npos);
   // Without the flag the same file is refused for its missing labels; with boxes it is refused.
   EXPECT_EQ(run_command(eval("--data " + rec + " --out " + o + "x"), &out), 1);
@@ -370,7 +370,7 @@ TEST_F(EvalCli, OutputThresholdsGiveARowPerFactorAndAnOperatingPointPlot) {
   EXPECT_EQ(moving[2], 0.0);  // above any reachable potential: nothing
   EXPECT_NE(out.find("pass_all.safetensors θ×4 "), std::string::npos) << out;
   EXPECT_NE(slurp(o + "/results.md").find("output θ × 50"), std::string::npos);
-  EXPECT_NE(slurp(o + "/results.csv").find(",50\n"), std::string::npos);
+  EXPECT_NE(slurp(o + "/results.csv").find(",50,0\n"), std::string::npos);
   // The plot: the model's curve (factors 1 and 4; nothing is labelled at 50, so no precision)
   // and the baseline's point, named once each.
   const std::string svg = slurp(o + "/plots/operating_points_1.svg");
@@ -382,6 +382,45 @@ TEST_F(EvalCli, OutputThresholdsGiveARowPerFactorAndAnOperatingPointPlot) {
         run_command(eval(std::string("--data ") + data() + " --output-thresholds " + bad), &out), 1)
         << bad;
     EXPECT_NE(out.find("--output-thresholds"), std::string::npos) << out;
+  }
+}
+
+// --output-gates scores each model once per output gate: a row each, the gate in every file. The
+// pass-all model answers an event one step (1 ms) later at its pixel, so a 1 ms gate (the
+// output's own step only) keeps only outputs at pixels that had another event in that step,
+// fewer than without a gate; a gate of 100 ms is longer than any of its answers (a lone spike's
+// potential is below θ again within a few steps), so it keeps every output: the ungated scores.
+TEST_F(EvalCli, OutputGatesGiveARowPerGate) {
+  const std::string o = dir_ + "/out_gates";
+  std::string out;
+  ASSERT_EQ(run_command(eval("--data " + data() +
+                             " --split all --windows 20 --output-gates 0,1,100 --out " + o),
+                        &out),
+            0)
+      << out;
+  const auto j = nlohmann::json::parse(slurp(o + "/results.json"));
+  ASSERT_EQ(j["models"].size(), 3u);
+  const double gates[3] = {0, 1, 100};
+  double moving[3], iou[3];
+  for (size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(j["models"][i]["output_gate_ms"].get<double>(), gates[i]);
+    moving[i] = j["models"][i]["datasets"][0]["windows"][0]["moving_share"].get<double>();
+    iou[i] = j["models"][i]["datasets"][0]["windows"][0]["iou_mean"].get<double>();
+  }
+  EXPECT_GT(moving[0], 90.0);
+  EXPECT_LT(moving[1], moving[0] - 10.0);
+  EXPECT_DOUBLE_EQ(moving[2], moving[0]);
+  EXPECT_DOUBLE_EQ(iou[2], iou[0]);
+  EXPECT_NE(out.find("pass_all.safetensors gate 1 ms "), std::string::npos) << out;
+  EXPECT_NE(slurp(o + "/results.md").find("output gate 100 ms"), std::string::npos);
+  EXPECT_NE(slurp(o + "/results.csv").find(",1,100\n"), std::string::npos);
+  for (const char* bad : {"-1", "1,x", "1,1", "1,,2", "0.5", "0.0001"}) {
+    EXPECT_EQ(run_command(eval(std::string("--data ") + data() + " --output-gates " + bad), &out),
+              1)
+        << bad;
+    EXPECT_TRUE(out.find("--output-gates") != std::string::npos ||
+                out.find("whole number") != std::string::npos)
+        << bad << ": " << out;
   }
 }
 

@@ -209,6 +209,74 @@ TEST(RuntimeVsTorch, SkipModelMatchesInEveryPath) {
   }
 }
 
+// The output gate (ModelSpec::output_gate_steps = 3): LibTorch's last layer keeps a spike of step
+// t only where the sensor pixel had an input event in steps t-2 .. t (checked by the definition,
+// on the 24x16 output of the 21x13 input, whose last rows and columns have none), the other
+// layers are untouched; the truncated forward (the trainer's warm-up) gates its window alike;
+// and the runtime's outputs equal torch's, step by step and through the pipeline.
+TEST(RuntimeVsTorch, OutputGateMatches) {
+  const ModelSpec m = random_model(Discretisation::IIR, 26, {4, 6, 8}, true, 0.3f);
+  ModelSpec g = m;
+  g.output_gate_steps = 3;
+  torch::manual_seed(26);
+  const torch::Tensor input = (torch::rand({40, 1, 2, 13, 21}) < 0.05).to(torch::kFloat);
+  const auto plain = train::forward_all_layers(m, input);
+  const auto gated = train::forward_all_layers(g, input);
+  const size_t L = m.layers.size();
+  for (size_t k = 0; k + 1 < L; ++k) EXPECT_TRUE(torch::equal(plain[k], gated[k])) << k;
+  const auto in = input.accessor<float, 5>();
+  const auto po = plain.back().accessor<float, 5>();
+  const auto go = gated.back().accessor<float, 5>();
+  int kept = 0, removed = 0;
+  for (int64_t t = 0; t < po.size(0); ++t)
+    for (int64_t c = 0; c < po.size(2); ++c)
+      for (int64_t y = 0; y < po.size(3); ++y)
+        for (int64_t x = 0; x < po.size(4); ++x) {
+          bool event = false;
+          for (int64_t u = std::max<int64_t>(0, t - 2); u <= t; ++u)
+            for (int64_t p = 0; p < 2; ++p)
+              event = event || (y < 13 && x < 21 && in[u][0][p][y][x] > 0);
+          ASSERT_EQ(go[t][0][c][y][x], event ? po[t][0][c][y][x] : 0.f)
+              << "t " << t << " c " << c << " y " << y << " x " << x;
+          if (po[t][0][c][y][x] > 0) (event ? kept : removed) += 1;
+        }
+  EXPECT_GT(kept, 20);
+  EXPECT_GT(removed, kept);
+  {
+    torch::NoGradGuard ng;
+    train::SpikeMSNetwork net(g);
+    const auto window = net->forward_all_truncated(input, 12);
+    EXPECT_TRUE(torch::equal(window.back(), gated.back().narrow(0, 12, 28)));
+    EXPECT_TRUE(torch::equal(net->forward(input), gated.back()));
+  }
+  const auto want = sorted_steps(gated.back());
+  const auto steps = to_steps(input);
+  StreamingNetwork net(g, 13, 21);
+  for (size_t t = 0; t < steps.size(); ++t) {
+    auto got = net.step(steps[t]);
+    std::sort(got.begin(), got.end());
+    ASSERT_EQ(got, want[t]) << "step " << t;
+  }
+  for (int threads : {1, 3}) {
+    StreamingNetwork b(g, 13, 21);
+    b.set_threads(threads);
+    std::vector<std::vector<uint32_t>> got;
+    for (size_t t = 0; t < steps.size(); t += 8) {
+      const size_t ready = b.step_block(&steps[t], 8);
+      for (size_t j = 0; j < ready; ++j) got.push_back(b.block_output(j));
+    }
+    while (b.in_flight()) {
+      const size_t ready = b.step_block(nullptr, 0);
+      for (size_t j = 0; j < ready; ++j) got.push_back(b.block_output(j));
+    }
+    ASSERT_EQ(got.size(), steps.size());
+    for (size_t t = 0; t < got.size(); ++t) {
+      std::sort(got[t].begin(), got[t].end());
+      ASSERT_EQ(got[t], want[t]) << threads << " threads, step " << t;
+    }
+  }
+}
+
 // The potential readout (model.readout = "potential"): the output layer without refractory
 // (scale_ref = 0) spikes at every step its potential is at or above theta, in torch and in
 // the runtime alike, so the runtime labels events by the potential the loss scored.

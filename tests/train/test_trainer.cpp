@@ -221,6 +221,38 @@ TEST(Trainer, PotentialReadoutLearnsAndSavesAnOutputWithoutRefractory) {
                         "loss.kind = both with the potential readout");
 }
 
+// model.output_gate_ms: the run's model carries the gate (in steps) and validates with it; the
+// loss scores the potential readout, which the gate does not touch, so the losses equal those of
+// the same run without a gate. Bad values name the key.
+TEST(Trainer, OutputGateKeyGatesTheSavedModel) {
+  const std::string root = scratch_dir();  // once: each call empties the folder
+  const std::string data = root + "/data";
+  auto ov = one_sequence_overrides(data, 6);
+  for (const char* k :
+       {"sample.step_ms=1.0", "run.val_every=6", "run.val_full_s=0.1", "run.val_full_window_ms=20",
+        "sample.warmup_ms=10", "model.readout=\"potential\"", "loss.kind=bce",
+        "loss.floor_weight=0.0", "loss.activity_weight=0.0"})
+    ov.push_back(k);
+  auto gated = ov;
+  gated.push_back("model.output_gate_ms=3");
+  const std::string a = root + "/plain", b = root + "/gated";
+  EXPECT_EQ(train_quietly(ov, a).steps, 6);
+  EXPECT_EQ(train_quietly(gated, b).steps, 6);
+  EXPECT_EQ(load_model(a + "/model.safetensors").output_gate_steps, 0);
+  EXPECT_EQ(load_model(b + "/model.safetensors").output_gate_steps, 3);
+  const auto la = read_log(a, "train"), lb = read_log(b, "train");
+  ASSERT_EQ(la.size(), lb.size());
+  for (size_t i = 0; i < la.size(); ++i)
+    EXPECT_DOUBLE_EQ(la[i]["loss"].get<double>(), lb[i]["loss"].get<double>()) << "step " << i;
+  ASSERT_EQ(read_log(b, "val").size(), 2u);  // before the first step and after the last
+  for (const char* bad : {"model.output_gate_ms=-1", "model.output_gate_ms=2.5"}) {
+    auto o = ov;
+    o.push_back(bad);
+    expect_refused<Error>([&] { load_train_config(config_path(), o); }, {"model.output_gate_ms"},
+                          bad);
+  }
+}
+
 // Runs `spikems train` as a child process and kills it with SIGKILL once its first checkpoint
 // is on disk.
 void train_and_kill(const std::vector<std::string>& args, const std::string& dir) {

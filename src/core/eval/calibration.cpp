@@ -32,6 +32,9 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
   e.split = opt.split;
   e.windows_us = {opt.window_us};
   e.output_thresholds = factors;
+  std::vector<int64_t> gates = opt.gates_us;
+  std::sort(gates.begin(), gates.end());
+  e.output_gates_us = gates;
   e.threads = opt.threads;
   e.max_seconds = opt.max_seconds;
   e.progress = opt.progress;
@@ -42,6 +45,8 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
   for (const ModelResult& m : r.eval.models) {
     CalibrationPoint p;
     p.factor = m.output_threshold;
+    p.gate_steps = m.output_gate_steps;
+    p.gate_ms = m.output_gate_steps * m.time_step_ms;
     EventCounts ev;
     double iou_sum = 0;
     for (const DatasetResult& d : m.datasets) {
@@ -65,9 +70,11 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
   }
   for (size_t i = 1; i < r.points.size(); ++i) {
     const CalibrationPoint &a = r.points[i], &b = r.points[r.best];
-    const bool better =
-        a.score > b.score + 1e-9 ||
-        (a.score >= b.score - 1e-9 && std::abs(std::log(a.factor)) < std::abs(std::log(b.factor)));
+    const bool better = a.score > b.score + 1e-9 ||
+                        (a.score >= b.score - 1e-9 &&
+                         (std::abs(std::log(a.factor)) < std::abs(std::log(b.factor)) - 1e-12 ||
+                          (std::abs(std::log(a.factor)) <= std::abs(std::log(b.factor)) + 1e-12 &&
+                           a.gate_steps < b.gate_steps)));
     if (better) r.best = i;
   }
   return r;
@@ -76,6 +83,7 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
 ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResult& r) {
   const CalibrationPoint& best = r.points.at(r.best);
   ModelSpec m = with_output_threshold(load_model(opt.model), best.factor, opt.model);
+  m.output_gate_steps = best.gate_steps;  // the model's own when no gate was swept
   double before = 1;
   if (m.training.is_object() && m.training.contains("calibration") &&
       m.training["calibration"].contains("output_threshold_scale"))
@@ -83,6 +91,7 @@ ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResul
   nlohmann::json table = nlohmann::json::array();
   for (const auto& p : r.points)
     table.push_back({{"factor", p.factor},
+                     {"output_gate_ms", p.gate_ms},
                      {"iou", p.iou},
                      {"event_iou", p.event_iou},
                      {"event_precision", p.precision},
@@ -92,6 +101,7 @@ ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResul
   if (!m.training.is_object()) m.training = nlohmann::json::object();
   m.training["calibration"] = {{"factor", best.factor},
                                {"output_threshold_scale", before * best.factor},
+                               {"output_gate_ms", best.gate_ms},
                                {"criterion", opt.criterion},
                                {"score", best.score},
                                {"data", opt.data},
@@ -106,15 +116,18 @@ ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResul
 }
 
 std::string calibration_table(const CalibrationOptions& opt, const CalibrationResult& r) {
-  std::string out = "| factor | IoU % (" + fmt("%g", double(opt.window_us) / 1000.0) +
+  const bool gates = !opt.gates_us.empty();
+  std::string out = std::string("| factor |") + (gates ? " gate ms |" : "") + " IoU % (" +
+                    fmt("%g", double(opt.window_us) / 1000.0) +
                     " ms) | event IoU % | event P % | event R % | moving % | |\n";
-  out += "|---|---|---|---|---|---|---|\n";
+  out += gates ? "|---|---|---|---|---|---|---|---|\n" : "|---|---|---|---|---|---|---|\n";
   for (size_t i = 0; i < r.points.size(); ++i) {
     const CalibrationPoint& p = r.points[i];
-    out += "| " + fmt("%g", p.factor) + " | " + fmt("%.1f", p.iou) + " | " +
-           fmt("%.1f", p.event_iou) + " | " + fmt("%.1f", p.precision) + " | " +
-           fmt("%.1f", p.recall) + " | " + fmt("%.1f", p.moving) + " | " +
-           (i == r.best ? "chosen (" + opt.criterion + ")" : "") + " |\n";
+    out += "| " + fmt("%g", p.factor) + " | " + (gates ? fmt("%g", p.gate_ms) + " | " : "") +
+           fmt("%.1f", p.iou) + " | " + fmt("%.1f", p.event_iou) + " | " +
+           fmt("%.1f", p.precision) + " | " + fmt("%.1f", p.recall) + " | " +
+           fmt("%.1f", p.moving) + " | " + (i == r.best ? "chosen (" + opt.criterion + ")" : "") +
+           " |\n";
   }
   return out;
 }

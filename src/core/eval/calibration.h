@@ -17,6 +17,8 @@ struct CalibrationOptions {
   std::vector<std::string> data;  // labelled sources (simulator folders or recordings)
   std::string split = "val";
   std::vector<double> factors = {0.9, 0.95, 1, 1.05, 1.1, 1.15, 1.2, 1.25, 1.3, 1.4};
+  // Output gates to try with every factor (output_gate.h), µs, 0 = off; empty = the model's own.
+  std::vector<int64_t> gates_us;
   int64_t window_us = 20000;
   // "event-iou": TP / (TP + FP + FN) over the events of all whole windows (the per-event view
   // `spikems segment` gives; monotone in the event F1); "iou": BRIEF.md's mean window IoU.
@@ -29,26 +31,30 @@ struct CalibrationOptions {
 
 struct CalibrationPoint {
   double factor = 1;
+  int gate_steps = 0;  // the output gate it ran with (the model's own when none was swept)
+  double gate_ms = 0;
   double score = 0;  // the criterion, percent (0-100)
   double iou = 0, event_iou = 0, precision = 0, recall = 0, moving = 0;  // percent
   size_t windows = 0;
 };
 
 struct CalibrationResult {
-  std::vector<CalibrationPoint> points;  // in factor order
+  std::vector<CalibrationPoint> points;  // by gate, then factor
   size_t best = 0;                       // index into points
   EvalResults eval;                      // the scoring behind them
 };
 
-// Scores the model at every factor and picks the best by the criterion; ties (within 1e-9)
-// go to the factor nearest 1 (in ratio), so a flat curve leaves the model as it is. Throws
+// Scores the model at every factor (and gate) and picks the best by the criterion; ties (within
+// 1e-9) go to the factor nearest 1 (in ratio), then to the shorter gate, so a flat curve leaves
+// the model as it is. Throws
 // Error for an unknown criterion, an empty factor list, data without labels or without a
 // scored window (errors of evaluate() included), or an interrupted run.
 CalibrationResult calibrate(const CalibrationOptions& opt);
 
-// The model with the chosen factor applied and `training.calibration` recorded: factor,
-// criterion, score, data, split, window, the per-factor table, command and date. A model
-// calibrated before has its factors multiplied (`output_threshold_scale` keeps the product).
+// The model with the chosen factor (and gate, when gates were swept) applied and
+// `training.calibration` recorded: factor, output_gate_ms, criterion, score, data, split, window,
+// the per-factor table, command and date. A model calibrated before has its factors multiplied
+// (`output_threshold_scale` keeps the product).
 ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResult& r);
 
 // A table for people: one row per factor, the chosen one marked.

@@ -7,6 +7,7 @@
 #include "core/eval/baseline_scorer.h"
 #include "core/eval/boxes.h"
 #include "core/eval/sequence_scorer.h"
+#include "core/model/output_gate.h"
 #include "core/model/output_threshold.h"
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
@@ -65,16 +66,20 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   std::vector<ModelSpec> models;
   std::vector<std::string> model_paths;
   std::vector<double> model_scales;
+  const std::vector<int64_t> gates =
+      opt.output_gates_us.empty() ? std::vector<int64_t>{-1} : opt.output_gates_us;
   for (const auto& p : paths) {
     ModelSpec m = load_model(p);
     if (opt.iir && m.type == ModelType::SNN) m = with_iir_neurons(std::move(m), p);
     check_windows(opt.windows_us, time_step_us(m), p);
     if (!opt.kalman_us.empty()) check_windows(opt.kalman_us, time_step_us(m), p + " (--kalman)");
-    for (double s : scales) {
-      models.push_back(s == 1.0 ? m : with_output_threshold(m, s, p));
-      model_paths.push_back(p);
-      model_scales.push_back(s);
-    }
+    for (int64_t g : gates)
+      for (double s : scales) {
+        ModelSpec v = g < 0 ? m : with_output_gate(m, g, p);
+        models.push_back(s == 1.0 ? std::move(v) : with_output_threshold(std::move(v), s, p));
+        model_paths.push_back(p);
+        model_scales.push_back(s);
+      }
   }
   if (!opt.baselines.empty()) check_windows(opt.windows_us, 1, "--windows");
 
@@ -124,6 +129,7 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   for (size_t i = 0; i < models.size(); ++i) {
     res[i].path = model_paths[i];
     res[i].output_threshold = model_scales[i];
+    res[i].output_gate_steps = models[i].output_gate_steps;
     res[i].name = models[i].name;
     res[i].time_step_ms = double(time_step_us(models[i])) / 1000.0;
     res[i].iir = opt.iir;

@@ -27,6 +27,9 @@ struct EvalOptions {
   // Output-threshold factors (output_threshold.h): every model is scored once per factor, a
   // row each; empty = {1}, the model as trained. Two or more trace a precision-recall curve.
   std::vector<double> output_thresholds;
+  // Output gates (output_gate.h), µs, 0 = off: every model is also scored once per gate (and
+  // factor), a row each; empty = each model's own gate.
+  std::vector<int64_t> output_gates_us;
   int threads = 1;   // threads inside the network
   bool iir = false;  // run FIR layers as their exact IIR recursions
   bool gate_events =

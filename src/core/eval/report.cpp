@@ -86,20 +86,22 @@ PlotSeries iou_series(const std::string& label, const DatasetResult& d) {
   return s;
 }
 
-// The operating points of the runs of one model file on a dataset (one per output-threshold
-// factor, output_threshold.h), in factor order, from the first window length's event counts:
-// event precision against recall, or on a static scene the share labelled moving against the
-// factor. Fewer than two points: no series (a single point is no curve).
-PlotSeries operating_points(const EvalResults& r, const std::string& path, size_t d,
+// The operating points of the runs of one model file with one output gate on a dataset (one per
+// output-threshold factor, output_threshold.h), in factor order, from the first window length's
+// event counts: event precision against recall, or on a static scene the share labelled moving
+// against the factor. Fewer than two points: no series (a single point is no curve).
+PlotSeries operating_points(const EvalResults& r, const std::string& path, int gate, size_t d,
                             bool static_scene) {
   std::vector<std::pair<double, const WindowSummary*>> pts;
+  const ModelResult* any = nullptr;
   for (const auto& m : r.models)
-    if (m.path == path && d < m.datasets.size() && !m.datasets[d].windows.empty() &&
-        m.datasets[d].windows[0].has_events)
-      pts.push_back({m.output_threshold, &m.datasets[d].windows[0]});
+    if (m.path == path && m.output_gate_steps == gate && d < m.datasets.size() &&
+        !m.datasets[d].windows.empty() && m.datasets[d].windows[0].has_events)
+      pts.push_back({m.output_threshold, &m.datasets[d].windows[0]}), any = &m;
   std::sort(pts.begin(), pts.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   PlotSeries s;
   s.label = model_file_label(r, path);
+  if (gate > 0 && any) s.label += " gate " + fmt("%g", gate * any->time_step_ms) + " ms";
   for (const auto& [scale, w] : pts) {
     const EventCounts& e = w->events;
     if (static_scene) {
@@ -196,14 +198,17 @@ std::string write_report(const EvalResults& r, const EvalExamples& ex, const std
   }
 
   // Operating points: a curve per model file scored at several output-threshold factors.
-  std::vector<std::string> swept;
-  for (const auto& m : r.models)
-    if (m.output_threshold != 1 && std::find(swept.begin(), swept.end(), m.path) == swept.end())
-      swept.push_back(m.path);
+  // (A curve per output gate too.)
+  std::vector<std::pair<std::string, int>> swept;
+  for (const auto& m : r.models) {
+    const std::pair<std::string, int> key{m.path, m.output_gate_steps};
+    if (m.output_threshold != 1 && std::find(swept.begin(), swept.end(), key) == swept.end())
+      swept.push_back(key);
+  }
   for (size_t d = 0; d < datasets && !swept.empty(); ++d) {
     std::vector<PlotSeries> curves;
-    for (const auto& p : swept) {
-      PlotSeries c = operating_points(r, p, d, r.static_scene);
+    for (const auto& [p, gate] : swept) {
+      PlotSeries c = operating_points(r, p, gate, d, r.static_scene);
       if (!c.x.empty()) curves.push_back(std::move(c));
     }
     if (curves.empty()) continue;

@@ -161,7 +161,8 @@ std::string csv_row(const std::string& level, const ModelResult& m, const Datase
     r += ",,,,";
   r += ",";
   if (w.has_events && e.total() > 0) r += fmt("%.4f", 100 * e.moving_share());
-  return r + "," + fmt("%g", m.output_threshold) + "\n";
+  return r + "," + fmt("%g", m.output_threshold) + "," +
+         fmt("%g", m.output_gate_steps * m.time_step_ms) + "\n";
 }
 
 // Display width of UTF-8 text (code points; the tables use ±, Δ and –).
@@ -268,6 +269,7 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
     jm["time_step_ms"] = m.time_step_ms;
     jm["iir"] = m.iir;
     jm["output_threshold_scale"] = m.output_threshold;
+    jm["output_gate_ms"] = m.output_gate_steps * m.time_step_ms;
     nlohmann::ordered_json ds = nlohmann::ordered_json::array();
     for (const auto& d : m.datasets) {
       nlohmann::ordered_json jd;
@@ -301,7 +303,7 @@ std::string results_csv(const EvalResults& r) {
   std::string out =
       "level,model,data,split,sequence,window_ms,iou_mean,iou_std,detection_rate,windows,"
       "skipped_windows,sequences,filter,event_precision,event_recall,events_tp,events_fp,"
-      "events_fn,events_tn,moving_share,output_threshold_scale\n";
+      "events_fn,events_tn,moving_share,output_threshold_scale,output_gate_ms\n";
   for (const auto& m : r.models)
     for (const auto& d : m.datasets) {
       for (const auto& w : d.windows) out += csv_row("dataset", m, d, "", w);
@@ -319,7 +321,10 @@ std::string model_file_label(const EvalResults& r, const std::string& path) {
 
 std::string model_label(const EvalResults& r, const ModelResult& m) {
   const std::string name = model_file_label(r, m.path);
-  return m.output_threshold == 1 ? name : name + " θ×" + fmt("%g", m.output_threshold);
+  const std::string gate = m.output_gate_steps > 0
+                               ? " gate " + fmt("%g", m.output_gate_steps * m.time_step_ms) + " ms"
+                               : "";
+  return (m.output_threshold == 1 ? name : name + " θ×" + fmt("%g", m.output_threshold)) + gate;
 }
 
 TextTable summary_table(const EvalResults& r) {
@@ -368,7 +373,11 @@ std::string results_markdown(const EvalResults& r) {
   for (const auto& m : r.models)
     out += "- model: `" + m.path + "` (" + m.name + ", time step " + fmt("%g", m.time_step_ms) +
            " ms" + (m.iir ? ", FIR layers run as IIR" : "") +
-           (m.output_threshold != 1 ? ", output θ × " + fmt("%g", m.output_threshold) : "") + ")\n";
+           (m.output_threshold != 1 ? ", output θ × " + fmt("%g", m.output_threshold) : "") +
+           (m.output_gate_steps > 0
+                ? ", output gate " + fmt("%g", m.output_gate_steps * m.time_step_ms) + " ms"
+                : "") +
+           ")\n";
   if (r.max_seconds > 0) out += "- first " + fmt("%g", r.max_seconds) + " s of each sequence\n";
   if (r.gate_events)
     out +=

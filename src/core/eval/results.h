@@ -56,6 +56,8 @@ struct ModelResult {
   bool iir = false;  // FIR layers run as IIR recursions (--iir)
   // The factor on the output layer's θ (EvalOptions::output_thresholds); 1 = as trained.
   double output_threshold = 1;
+  // The output gate it ran with (ModelSpec::output_gate_steps, its own or EvalOptions'), steps.
+  int output_gate_steps = 0;
   std::vector<DatasetResult> datasets;
 };
 

@@ -74,6 +74,12 @@ void ModelSpec::validate(const std::string& src) const {
     fail(src, "", "time step must be in (0, 1000] ms");
   if (input_width < 0 || input_height < 0 || input_width > 65535 || input_height > 65535)
     fail(src, "", "input size out of range");
+  if (output_gate_steps < 0 || output_gate_steps > kMaxOutputGateSteps)
+    fail(src, "",
+         "output_gate_steps must be 0 (off) to " + std::to_string(kMaxOutputGateSteps) + ", got " +
+             std::to_string(output_gate_steps));
+  if (output_gate_steps > 0 && type != ModelType::SNN)
+    fail(src, "", "an output gate is for spiking models (the ANN-2D's output is gated already)");
   for (size_t k = 0; k < layers.size(); ++k) {
     const auto& l = layers[k];
     std::string where = "layer " + std::to_string(k);
@@ -339,6 +345,7 @@ nlohmann::json spec_to_json(const ModelSpec& s) {
   j["time_step_ms"] = s.time_step_ms;
   j["input_width"] = s.input_width;
   j["input_height"] = s.input_height;
+  if (s.output_gate_steps != 0) j["output_gate_steps"] = s.output_gate_steps;
   j["training"] = s.training;
   j["layers"] = nlohmann::json::array();
   for (const auto& l : s.layers) {
@@ -378,6 +385,7 @@ ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
     s.time_step_ms = j.at("time_step_ms").get<double>();
     s.input_width = j.value("input_width", 0);
     s.input_height = j.value("input_height", 0);
+    s.output_gate_steps = j.value("output_gate_steps", 0);
     if (j.contains("training")) s.training = j["training"];
     for (size_t k = 0; k < j.at("layers").size(); ++k) {
       const auto& lj = j["layers"][k];

@@ -20,6 +20,7 @@
 namespace spikems {
 
 inline constexpr int kModelFormatVersion = 1;
+inline constexpr int kMaxOutputGateSteps = 100000;
 
 enum class LayerKind { Conv, ConvTranspose };
 // Refractory kernel shape: the SpikeMS authors' delayed exponential
@@ -73,6 +74,14 @@ struct ModelSpec {
   // Sensor size the model was trained for (0 = any). The runtime checks it when set.
   int input_width = 0, input_height = 0;
   std::vector<LayerSpec> layers;
+  // The output gate (docs/model-format.md, "Output gate"), spiking models only: K > 0 keeps an
+  // output spike of step s only where its pixel (output pixel (y, x) = input pixel (y, x)) had
+  // an input event in steps s-K+1 .. s, the output's own step included. The task labels events,
+  // so an output where none fell labels nothing, yet the decoder's stride-2 upsampling spreads
+  // the output onto event-less neighbours (docs/results.md, "Seventeenth session"). A shunting
+  // synapse from the input: the runtime, the dense reference and the LibTorch network apply it
+  // to the last layer's spikes alike. 0: off.
+  int output_gate_steps = 0;
   nlohmann::json training = nlohmann::json::object();  // free provenance (config, epochs, ...)
 
   // Output spatial size for an input size (through all layers).

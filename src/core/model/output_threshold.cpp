@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "core/util/error.h"
+#include "core/util/number_list.h"
 
 namespace spikems {
 
@@ -45,19 +46,9 @@ ModelSpec with_output_threshold(ModelSpec model, double scale, const std::string
 
 std::vector<double> parse_threshold_scales(const std::string& list, const std::string& what) {
   std::vector<double> out;
-  size_t start = 0;
-  while (start <= list.size()) {
-    const size_t end = std::min(list.find(',', start), list.size());
-    const std::string item = list.substr(start, end - start);
-    char* stop = nullptr;
-    const double v = item.empty() ? NAN : std::strtod(item.c_str(), &stop);
-    if (item.empty() || stop != item.c_str() + item.size())
-      fail(what, "", "'" + item + "' is not a number: give factors like 1,1.1,1.2");
-    check_scale(v, what);
-    if (std::find(out.begin(), out.end(), v) != out.end())
-      fail(what, "", "'" + item + "' is given twice");
-    out.push_back(v);
-    start = end + 1;
+  for (const ListedNumber& n : parse_number_list(list, what, "factors like 1,1.1,1.2")) {
+    check_scale(n.value, what);
+    out.push_back(n.value);
   }
   return out;
 }

@@ -175,7 +175,23 @@ std::vector<DenseLayerOutput> dense_forward(const ModelSpec& m, const DenseTenso
       outs.push_back(
           dense_layer_forward(l, m.time_step_ms, k == 0 ? net_input : outs[k - 1].spikes));
   }
+  if (m.output_gate_steps > 0) dense_output_gate(m.output_gate_steps, input, outs.back().spikes);
   return outs;
+}
+
+void dense_output_gate(int steps, const DenseTensor& input, DenseTensor& spikes) {
+  // Literally: for each output spike, look back over the K steps for an input event at its
+  // pixel (output pixel (y, x) = input pixel (y, x); beyond the input, none).
+  for (int t = 0; t < spikes.T; ++t)
+    for (int y = 0; y < spikes.H; ++y)
+      for (int x = 0; x < spikes.W; ++x) {
+        bool event = false;
+        if (y < input.H && x < input.W)
+          for (int u = std::max(0, t - steps + 1); u <= t && u < input.T && !event; ++u)
+            for (int c = 0; c < input.C; ++c) event = event || input.at(u, c, y, x) != 0.f;
+        if (!event)
+          for (int c = 0; c < spikes.C; ++c) spikes.at(t, c, y, x) = 0.f;
+      }
 }
 
 }  // namespace spikems

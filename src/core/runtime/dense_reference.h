@@ -27,11 +27,17 @@ struct DenseLayerOutput {
 DenseLayerOutput dense_layer_forward(const LayerSpec& layer, double time_step_ms,
                                      const DenseTensor& input);
 
-// Every block in order; result k is the output of layer k. A model with skips runs on its
-// fitted input size (dense_network_input) and each layer with skip_from = j takes its
+// Every block in order; result k is the output of layer k (the last one's spikes through the
+// model's output gate, ModelSpec::output_gate_steps, when it has one). A model with skips runs on
+// its fitted input size (dense_network_input) and each layer with skip_from = j takes its
 // predecessor's spikes and layer j's concatenated on the channels (dense_layer_input), as the
 // LibTorch network and the streaming runtime do; its outputs are in that padded geometry.
 std::vector<DenseLayerOutput> dense_forward(const ModelSpec& model, const DenseTensor& input);
+
+// Zeroes the spikes [T, C, H, W] of each step t at the pixels without an event of `input`
+// [T, C_in, H_in, W_in] in steps t-steps+1 .. t (top-left aligned; pixels beyond the input have
+// none): the output gate of ModelSpec::output_gate_steps.
+void dense_output_gate(int steps, const DenseTensor& input, DenseTensor& spikes);
 
 // The input the network runs on: for a model with skips, `input` zero-padded at the bottom and
 // right to model.fitted_input_size (throws Error when no size fits); `input` otherwise.

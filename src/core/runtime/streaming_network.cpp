@@ -63,6 +63,49 @@ StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width)
   ahead_.resize(L);
   in_spikes_.assign(L, 0);
   seconds_.assign(L, 0.0);
+  gate_ = m.output_gate_steps;
+  if (gate_ > 0) {
+    gate_div_c_ = FastDiv(uint32_t(out_channels()));
+    // Far enough back that no step is within K of it.
+    gate_last_.assign(size_t(out_height()) * size_t(out_width()),
+                      -int64_t(kMaxOutputGateSteps) - 1);
+  }
+}
+
+void StreamingNetwork::gate_record(const std::vector<uint32_t>* inputs, size_t n) {
+  if (gate_ <= 0) return;
+  const uint32_t w = uint32_t(w_), ho = uint32_t(out_height()), wo = uint32_t(out_width());
+  for (size_t j = 0; j < n; ++j) {
+    std::vector<uint32_t> px;
+    if (!gate_spare_.empty()) {
+      px.swap(gate_spare_.back());
+      gate_spare_.pop_back();
+    }
+    px.clear();
+    for (const uint32_t i : inputs[j]) {
+      const uint32_t pos = i >> 1, y = div_w_(pos), x = pos - y * w;
+      if (y < ho && x < wo) px.push_back(y * wo + x);
+    }
+    gate_pending_.emplace_back(taken_ + int64_t(j), std::move(px));
+  }
+}
+
+void StreamingNetwork::gate_outputs(std::vector<uint32_t>* outputs, size_t n) {
+  if (gate_ <= 0) return;
+  for (size_t j = 0; j < n; ++j) {
+    const int64_t s = t_ + int64_t(j);
+    while (!gate_pending_.empty() && gate_pending_.front().first <= s) {
+      for (const uint32_t p : gate_pending_.front().second)
+        gate_last_[p] = gate_pending_.front().first;
+      gate_spare_.push_back(std::move(gate_pending_.front().second));
+      gate_pending_.pop_front();
+    }
+    std::vector<uint32_t>& o = outputs[j];
+    size_t kept = 0;
+    for (const uint32_t i : o)
+      if (s - gate_last_[gate_div_c_(i)] < gate_) o[kept++] = i;
+    o.resize(kept);
+  }
 }
 
 const std::vector<uint32_t>& StreamingNetwork::input_of(size_t k, const std::vector<uint32_t>& a,
@@ -235,6 +278,7 @@ void StreamingNetwork::sort_layers() {
 
 const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>& input) {
   if (in_flight()) fail("streaming network", "", "step() while blocks are in flight");
+  gate_record(&input, 1);
   const int L = int(layers_.size());
   auto run = [&](int k) {
     const int skip = map_[size_t(k)].skip;
@@ -255,6 +299,7 @@ const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>&
     for (int k = 0; k < L; ++k) run(k);
   emitted_.swap(now_);  // spikes of t
   now_.swap(ahead_);    // spikes of t+1; ahead_ holds buffers to reuse
+  gate_outputs(&emitted_.back(), 1);
   ++t_;
   ++taken_;
   return emitted_.back();
@@ -290,10 +335,15 @@ size_t StreamingNetwork::step_block(const std::vector<uint32_t>* inputs, size_t 
     block_[L - 1].resize(1);
     block_[L - 1][0] = step(inputs[0]);
   } else {
+    gate_record(inputs, n);
     for (size_t k = 0; k < L; ++k) {
       const int skip = map_[k].skip;
       run_layer_block(k, t_, k == 0 ? inputs : block_[k - 1].data(),
                       skip >= 0 ? block_[size_t(skip)].data() : nullptr, n, block_[k]);
+    }
+    if (gate_ > 0 && n > 0) {
+      gate_outputs(block_[L - 1].data(), n);
+      emitted_[L - 1] = block_[L - 1][n - 1];
     }
     t_ += int64_t(n);
     taken_ += int64_t(n);
@@ -339,6 +389,7 @@ void StreamingNetwork::start_block(const std::vector<uint32_t>* inputs, size_t n
       layer_t_[k] += int64_t(nb);
     };
   sort_layers();
+  gate_record(inputs, n);
   taken_ += int64_t(n);
   running_ = true;
   pool_->start(L, round_task_);
@@ -354,6 +405,10 @@ size_t StreamingNetwork::finish_block() {
   ++round_;
   const size_t ready = pipe_steps_[L - 1][s];
   ready_ = &pipe_[L - 1][s];
+  if (gate_ > 0 && ready > 0) {
+    gate_outputs(pipe_[L - 1][s].data(), ready);
+    emitted_[L - 1] = pipe_[L - 1][s][ready - 1];
+  }
   t_ += int64_t(ready);
   return ready;
 }

@@ -14,6 +14,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -137,6 +138,11 @@ class StreamingNetwork {
                    std::vector<uint32_t>& out) const;
   std::vector<LayerStats> stats() const;
   uint64_t total_synops() const;
+  // The model's output gate (ModelSpec::output_gate_steps, 0 = off): every output returned
+  // (step(), block_output(), layer_spikes() of the last layer) keeps a spike of step s only
+  // where its pixel had an input event in steps s-K+1 .. s. The last layer's own dynamics are
+  // untouched (the gate acts after its neurons), so its stats count the spikes before it.
+  int output_gate_steps() const { return gate_; }
 
  private:
   int h_, w_;                  // the caller's sensor
@@ -197,6 +203,16 @@ class StreamingNetwork {
   std::unique_ptr<TaskPool> pool_;
   std::vector<int> order_;  // layers by decreasing time so far, for the pool
   uint64_t pool_runs_ = 0;
+  // The output gate. Outputs come later than their inputs in the pipeline, so the inputs' pixels
+  // wait in gate_pending_ (step, output pixels) and enter gate_last_ (per output pixel, the
+  // last step with an input event) only when the output of their step is gated.
+  int gate_ = 0;
+  FastDiv gate_div_c_;  // by the output's channels
+  std::vector<int64_t> gate_last_;
+  std::deque<std::pair<int64_t, std::vector<uint32_t>>> gate_pending_;
+  std::vector<std::vector<uint32_t>> gate_spare_;                   // buffers to reuse
+  void gate_record(const std::vector<uint32_t>* inputs, size_t n);  // steps taken_ ..
+  void gate_outputs(std::vector<uint32_t>* outputs, size_t n);      // steps t_ .. t_+n-1
 };
 
 }  // namespace spikems

@@ -33,9 +33,18 @@ torch::Tensor SpikeMSNetworkImpl::forward(const torch::Tensor& x) {
   if (!spec_.has_skips()) {
     torch::Tensor s = x;
     for (auto& l : layers_) s = l->forward(s);
-    return s;
+    return gated(x, s);
   }
   return forward_all(x).back();
+}
+
+torch::Tensor SpikeMSNetworkImpl::gated(const torch::Tensor& x, const torch::Tensor& out,
+                                        int64_t from) const {
+  if (spec_.output_gate_steps <= 0) return out;
+  const int64_t d = out.dim();
+  return out * output_gate_mask(x, spec_.output_gate_steps, out.size(d - 2), out.size(d - 1))
+                   .narrow(0, from, out.size(0))
+                   .to(out.dtype());
 }
 
 std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all(const torch::Tensor& x,
@@ -44,6 +53,7 @@ std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all(const torch::Tensor& 
   for (size_t k = 0; k < layers_.size(); ++k)
     out.push_back(
         layers_[k]->forward(input_of(k, x, out), k + 1 == layers_.size() ? readout : nullptr));
+  out.back() = gated(x, out.back());
   return out;
 }
 
@@ -70,6 +80,7 @@ std::vector<torch::Tensor> SpikeMSNetworkImpl::forward_all_truncated(const torch
     out.push_back(layers_[k]->forward_window(torch::cat({warm_in[k], input_of(k, xs, out)}, 0), w0,
                                              warm_out[k],
                                              k + 1 == layers_.size() ? readout : nullptr));
+  out.back() = gated(x, out.back(), w0);
   return out;
 }
 
@@ -92,6 +103,19 @@ std::vector<torch::Tensor> forward_all_layers(const ModelSpec& spec, const torch
   torch::NoGradGuard no_grad;
   SpikeMSNetwork net(spec);
   return net->forward_all(input);
+}
+
+torch::Tensor output_gate_mask(const torch::Tensor& x, int64_t steps, int64_t height,
+                               int64_t width) {
+  TORCH_CHECK(x.dim() == 5 && steps > 0, "output_gate_mask: input [T, B, C, H, W], steps > 0");
+  // Events per step and pixel, summed over the last `steps` steps by a cumulative sum.
+  const torch::Tensor e = x.ne(0).any(2, /*keepdim=*/true).to(torch::kFloat);
+  torch::Tensor c = e.cumsum(0);
+  const int64_t T = x.size(0);
+  if (steps < T)
+    c = torch::cat(
+        {c.narrow(0, 0, steps), c.narrow(0, steps, T - steps) - c.narrow(0, 0, T - steps)}, 0);
+  return align_to_input(c.gt(0.5).to(torch::kFloat), height, width);
 }
 
 torch::Tensor align_to_input(const torch::Tensor& y, int64_t height, int64_t width) {

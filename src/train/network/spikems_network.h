@@ -23,7 +23,7 @@ class SpikeMSNetworkImpl : public torch::nn::Module {
   explicit SpikeMSNetworkImpl(const ModelSpec& spec,
                               SpikeGradient gradient = SpikeGradient::Slayer);
 
-  torch::Tensor forward(const torch::Tensor& x);  // last layer's spikes
+  torch::Tensor forward(const torch::Tensor& x);  // last layer's spikes (output-gated)
   // Every layer's spikes; `readout`, when given, receives the last layer's synaptic potential
   // (the potential readout, docs/training.md), at no extra cost.
   std::vector<torch::Tensor> forward_all(const torch::Tensor& x, torch::Tensor* readout = nullptr);
@@ -48,6 +48,10 @@ class SpikeMSNetworkImpl : public torch::nn::Module {
  private:
   ModelSpec spec_;  // without weights
   std::vector<SpikingLayer> layers_;
+  // The output spikes `out` (steps from .. from + T_out of the input x) through the model's
+  // output gate (ModelSpec::output_gate_steps); `out` itself without one. The readout is not
+  // gated: the loss sees the potential, the gate only which spikes count.
+  torch::Tensor gated(const torch::Tensor& x, const torch::Tensor& out, int64_t from = 0) const;
 };
 TORCH_MODULE(SpikeMSNetwork);
 
@@ -55,6 +59,12 @@ TORCH_MODULE(SpikeMSNetwork);
 // `spec` on input [T, B, C, H, W] (float32 CPU), without gradients, and returns the spikes of
 // each layer, [T, B, C_k, H_k, W_k], in the model's own geometry (no alignment).
 std::vector<torch::Tensor> forward_all_layers(const ModelSpec& spec, const torch::Tensor& input);
+
+// The output gate's mask for input x [T, B, C, H, W]: [T, B, 1, height, width], 1 at
+// step t where the pixel had an input event in steps t-steps+1 .. t (top-left aligned; 0
+// beyond the input). As the runtime's and dense_output_gate's.
+torch::Tensor output_gate_mask(const torch::Tensor& x, int64_t steps, int64_t height,
+                               int64_t width);
 
 // Crops or zero-pads the last two dims of y to (height, width), top-left aligned.
 torch::Tensor align_to_input(const torch::Tensor& y, int64_t height, int64_t width);

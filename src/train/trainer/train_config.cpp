@@ -207,6 +207,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind_list("model", "tau_s", c.tau_s);
   b.bind("model", "skips", c.skips);
   b.bind("model", "readout", c.readout);
+  b.bind("model", "output_gate_ms", c.output_gate_ms);
   if (c.skips && (!c.padded || c.type != "snn"))
     b.bad("model", "skips", "skip connections need a spiking model with padded = true");
   std::vector<double> levels(c.skip_levels.begin(), c.skip_levels.end());
@@ -328,6 +329,15 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (warmup_ms < 0) b.bad("sample", "warmup_ms", "must not be negative");
   s.step_us = int64_t(std::llround(step_ms * 1000));
   s.window_us = int64_t(std::llround(window_ms * 1000));
+  if (c.output_gate_ms != 0) {
+    if (!(c.output_gate_ms > 0 && c.output_gate_ms <= 100000))
+      b.bad("model", "output_gate_ms", "must be 0 (none) or a duration in (0, 100000] ms");
+    else if (c.type != "snn")
+      b.bad("model", "output_gate_ms",
+            "an output gate is for spiking models (model.type = \"snn\")");
+    else if (s.step_us > 0 && std::llround(c.output_gate_ms * 1000) % s.step_us != 0)
+      b.bad("model", "output_gate_ms", "must be a whole number of sample.step_ms");
+  }
   s.warmup_us = int64_t(std::llround(warmup_ms * 1000));
   if (s.crop < 0 || (s.crop > 0 && s.crop < 16))
     b.bad("sample", "crop", "0 (whole sensor) or >= 16");

@@ -34,6 +34,10 @@ struct TrainConfig {
   // output layer loses its refractory (scale_ref = 0, saved in the model file) and the loss
   // scores its synaptic potential, graded and without a surrogate (docs/training.md).
   std::string readout = "spikes";
+  // The output gate, ms (docs/model-format.md, "Output gate"): the model keeps an output spike
+  // only where its pixel had an input event that recently, and validation scores that output.
+  // 0: none (a model.init file keeps its own gate).
+  double output_gate_ms = 0;
   // With skips: only these encoder levels (1-based, 1 = the finest) feed the decoder; empty =
   // every level. Leaving the finest out removes the output's two-layer path from the input.
   std::vector<int> skip_levels;

@@ -14,6 +14,7 @@
 
 #include "core/eval/evaluation.h"
 #include "core/model/model_file.h"
+#include "core/model/output_gate.h"
 #include "core/util/atomic_file.h"
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
@@ -393,6 +394,9 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
 
   ModelSpec spec = initial_spec(c);
   spec.time_step_ms = ts;
+  if (c.output_gate_ms > 0)
+    spec = with_output_gate(std::move(spec), std::llround(c.output_gate_ms * 1000),
+                            "model.output_gate_ms");
   if (c.readout == "potential" && spec.type == ModelType::SNN) {
     // No refractory at the output: it spikes at every step its potential is at or above
     // theta, the runtime's labels are then "u >= theta", the loss's p > 1/2.

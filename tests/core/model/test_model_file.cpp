@@ -375,5 +375,31 @@ TEST(WithIirNeurons, SwitchesSampledFirLayersAndRefusesOtherKernels) {
   }
 }
 
+// The output gate (ModelSpec::output_gate_steps): written only when set, read back, absent = 0,
+// and refused out of range, with the wrong type, or on an ANN-2D model.
+TEST(ModelFile, OutputGateRoundTripsAndIsValidated) {
+  ModelSpec s = spikems_architecture(true, Discretisation::IIR, {4, 6, 8}, {}, true);
+  EXPECT_EQ(s.output_gate_steps, 0);
+  EXPECT_FALSE(spec_to_json(s).contains("output_gate_steps"));  // files without a gate unchanged
+  s.output_gate_steps = 7;
+  EXPECT_EQ(spec_to_json(s)["output_gate_steps"], 7);
+  const auto dir = test::scratch_dir();
+  save_model(dir + "/gate.safetensors", s);
+  EXPECT_EQ(load_model(dir + "/gate.safetensors").output_gate_steps, 7);
+  ModelSpec b = s;
+  b.output_gate_steps = -1;
+  expect_error([&] { b.validate("m"); }, {"output_gate_steps", "0 (off)", "got -1"});
+  b.output_gate_steps = kMaxOutputGateSteps + 1;
+  expect_error([&] { b.validate("m"); }, {"output_gate_steps", "got 100001"});
+  b.output_gate_steps = kMaxOutputGateSteps;
+  EXPECT_NO_THROW(b.validate("m"));
+  nlohmann::json j = spec_to_json(s);
+  j["output_gate_steps"] = "seven";
+  EXPECT_THROW(spec_from_json(j, "m"), Error);
+  ModelSpec a = ann2d_architecture({4, 6, 8});
+  a.output_gate_steps = 3;
+  expect_error([&] { a.validate("ann"); }, {"output gate", "spiking models"});
+}
+
 }  // namespace
 }  // namespace spikems

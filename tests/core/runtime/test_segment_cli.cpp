@@ -220,6 +220,20 @@ TEST(SegmentCli, OutputThresholdMovesTheOperatingPoint) {
   EXPECT_EQ(moving(""), 240);
   EXPECT_EQ(moving("--output-threshold 4"), 240);
   EXPECT_EQ(moving("--output-threshold 5.0"), 0);
+  // The output gate: each OFF event's pixel answers one step (1 ms) later and sees its next
+  // event (ON) 6 ms after, so a 1 ms gate (the output's own step) drops every label and a 2 ms
+  // one keeps them all.
+  EXPECT_EQ(moving("--output-gate 1"), 0);
+  EXPECT_EQ(moving("--output-gate 2"), 240);
+  EXPECT_EQ(moving("--output-gate 0"), 240);
+  for (const char* bad : {"--output-gate -1", "--output-gate 1,2", "--output-gate 0.5"}) {
+    EXPECT_NE(run_command(spikems_binary() + " segment --quiet --model " + model + " --input " +
+                              ev + " --out " + d + "/bad.txt " + bad,
+                          &out),
+              0)
+        << bad;
+    EXPECT_NE(out.find("--output-gate"), std::string::npos) << bad << ": " << out;
+  }
   EXPECT_NE(run_command(spikems_binary() + " segment --quiet --model " + model + " --input " + ev +
                             " --out " + d + "/bad.txt --output-threshold 0",
                         &out),

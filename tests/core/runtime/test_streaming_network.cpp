@@ -866,5 +866,59 @@ TEST(StreamingNetwork, RejectsInputTooSmall) {
   EXPECT_THROW(StreamingNetwork(m, 10, 10), Error);
 }
 
+// The output gate (ModelSpec::output_gate_steps = K): the output layer's spikes of step t
+// survive only at pixels with an input event in steps t-K+1 .. t, the other layers are
+// untouched. Checked against the definition on the ungated dense output (a sparse input, so
+// that the gate removes many spikes but not all; the output's 24x16 grid is larger than the
+// 21x13 sensor, and nothing survives beyond it), then the runtime step by step and in blocks on
+// the threads' pipeline, whose outputs come many steps after their inputs.
+TEST(StreamingNetwork, OutputGateKeepsOutputsAtPixelsWithRecentEvents) {
+  const ModelSpec m = random_skip_model(Discretisation::IIR, 41, RefractoryShape::SpikeMS, 0.3f);
+  const DenseTensor input = make_input(40, kSkipH, kSkipW, false, 42);
+  const auto plain = dense_forward(m, input);
+  const DenseTensor& out = plain.back().spikes;
+  for (int K : {1, 3}) {
+    SCOPED_TRACE("K = " + std::to_string(K));
+    ModelSpec g = m;
+    g.output_gate_steps = K;
+    const auto gated = dense_forward(g, input);
+    for (size_t k = 0; k + 1 < m.layers.size(); ++k)
+      EXPECT_EQ(gated[k].spikes.v, plain[k].spikes.v) << "layer " << k;
+    double kept = 0, removed = 0, beyond = 0;
+    for (int t = 0; t < out.T; ++t)
+      for (int c = 0; c < out.C; ++c)
+        for (int y = 0; y < out.H; ++y)
+          for (int x = 0; x < out.W; ++x) {
+            if (out.at(t, c, y, x) == 0.f) continue;
+            bool event = false;
+            for (int u = t - K + 1; u <= t; ++u)
+              for (int p = 0; p < 2; ++p)
+                event = event || (u >= 0 && y < kSkipH && x < kSkipW && input.at(u, p, y, x) > 0);
+            EXPECT_EQ(gated.back().spikes.at(t, c, y, x), event ? 1.f : 0.f)
+                << "t " << t << " c " << c << " y " << y << " x " << x;
+            (event ? kept : removed) += 1;
+            beyond += y >= kSkipH || x >= kSkipW;
+          }
+    EXPECT_GT(kept, 20.0);
+    EXPECT_GT(removed, kept);  // the gate matters on this input
+    EXPECT_GT(beyond, 0.0);
+    EXPECT_EQ(gated.back().spikes.sum(), kept);
+    StreamingNetwork net(g, kSkipH, kSkipW);
+    EXPECT_EQ(net.output_gate_steps(), K);
+    for (int t = 0; t < input.T; ++t) {
+      auto o = net.step(spikes_at(input, t));
+      std::sort(o.begin(), o.end());
+      ASSERT_EQ(o, spikes_at(gated.back().spikes, t)) << "step " << t;
+      for (size_t k = 0; k < m.layers.size(); ++k)
+        ASSERT_EQ(sorted_layer_spikes(net, k), spikes_at(gated[k].spikes, t))
+            << "step " << t << " layer " << k;
+    }
+    for (int threads : {1, 2, 3}) {
+      SCOPED_TRACE(std::to_string(threads) + " threads");
+      expect_blocks_identical(g, make_input(47, kSkipH, kSkipW, false, 44), threads);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace spikems
