@@ -94,6 +94,9 @@ TEST(CalibrateCli, KeepsTheFactorWithTheBestEventIoUAndRecordsIt) {
   const ModelSpec m2 = load_model(again);
   EXPECT_FLOAT_EQ(m2.layers[0].neuron.theta, m.layers[0].neuron.theta);
   EXPECT_EQ(m2.training.at("calibration").at("output_threshold_scale").get<double>(), 3.0);
+  // The first calibration's record is kept inside the second's.
+  EXPECT_EQ(m2.training.at("calibration").at("previous").at("factor").get<double>(), 3.0);
+  EXPECT_EQ(m2.training.at("calibration").at("previous").at("points").size(), 5u);
 }
 
 // --gates: each output gate with each factor. The model answers an event a step or more after

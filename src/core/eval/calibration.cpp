@@ -85,9 +85,12 @@ ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResul
   ModelSpec m = with_output_threshold(load_model(opt.model), best.factor, opt.model);
   m.output_gate_steps = best.gate_steps;  // the model's own when no gate was swept
   double before = 1;
-  if (m.training.is_object() && m.training.contains("calibration") &&
-      m.training["calibration"].contains("output_threshold_scale"))
-    before = m.training["calibration"]["output_threshold_scale"].get<double>();
+  nlohmann::json previous;  // an earlier calibration's record, kept inside the new one
+  if (m.training.is_object() && m.training.contains("calibration")) {
+    previous = m.training["calibration"];
+    if (previous.contains("output_threshold_scale"))
+      before = previous["output_threshold_scale"].get<double>();
+  }
   nlohmann::json table = nlohmann::json::array();
   for (const auto& p : r.points)
     table.push_back({{"factor", p.factor},
@@ -112,6 +115,7 @@ ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResul
                                {"command", opt.command_line},
                                {"date", r.eval.date},
                                {"source_model", opt.model}};
+  if (!previous.is_null()) m.training["calibration"]["previous"] = std::move(previous);
   return m;
 }
 

@@ -54,7 +54,7 @@ CalibrationResult calibrate(const CalibrationOptions& opt);
 // The model with the chosen factor (and gate, when gates were swept) applied and
 // `training.calibration` recorded: factor, output_gate_ms, criterion, score, data, split, window,
 // the per-factor table, command and date. A model calibrated before has its factors multiplied
-// (`output_threshold_scale` keeps the product).
+// (`output_threshold_scale` keeps the product) and the earlier record kept under `previous`.
 ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResult& r);
 
 // A table for people: one row per factor, the chosen one marked.
