@@ -64,12 +64,16 @@ void add(CLI::App& app) {
       "multiplied by each factor; the factor with the best criterion is kept (ties: the one "
       "nearest 1) and the model is written with that threshold, the choice and the per-factor "
       "table in its metadata (training.calibration). Calibrate on validation data, never on "
-      "the data you report. See docs/evaluation.md, \"Operating points\".\n\n"
+      "the data you report. With --gates, each output gate (docs/model-format.md, \"Output "
+      "gate\") is tried with every factor and the best pair kept. See docs/evaluation.md, "
+      "\"Operating points\".\n\n"
       "Examples:\n"
       "  spikems calibrate --model runs/x/best.safetensors --data data/mod-val --split all "
       "--out runs/x/calibrated.safetensors\n"
       "  spikems calibrate --model m.safetensors --data data/mod --factors 1,1.1,1.2 "
-      "--criterion iou --window 20 --max-seconds 1 --out m-cal.safetensors");
+      "--criterion iou --window 20 --max-seconds 1 --out m-cal.safetensors\n"
+      "  spikems calibrate --model m.safetensors --data data/mod-val --split all --factors 1 "
+      "--gates 0,6,10,20 --criterion iou --out m-gated.safetensors");
   cmd->add_option("--model", a.model, "The model file to calibrate")->required();
   cmd->add_option("--data", a.data,
                   "Labelled validation data: simulator folders or recordings (repeat for more)")
