@@ -1,4 +1,5 @@
-// `spikems info FILE...`: what is in an event file, read chunk by chunk in bounded memory.
+// `spikems info FILE...`: what is in an event file, read chunk by chunk in bounded memory, or
+// what a model file (.safetensors) holds.
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -11,6 +12,7 @@
 
 #include "cli/command.h"
 #include "core/events/io.h"
+#include "core/model/model_summary.h"
 #include "core/util/duration.h"
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
@@ -195,13 +197,15 @@ void add(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "info",
       "Describe event files: format, resolution, event count, duration, rate, polarity balance, "
-      "labels, mask frames, intrinsics (streams the file: bounded memory)");
-  cmd->add_option("files", args->files, "Event files or dataset folders")->required();
+      "labels, mask frames, intrinsics (streams the file: bounded memory); or model files "
+      "(.safetensors): layers, time step, output threshold and gate, calibration, training");
+  cmd->add_option("files", args->files, "Event files, dataset folders or model files")->required();
   cmd->add_flag("--json", args->json, "Print one JSON object per file (a JSON array)");
   spikems::cli::add_read_flags(cmd, args->read);
   cmd->footer(
       "Examples:\n  spikems info recording.raw\n  spikems info seq.npz --json\n"
-      "  spikems info events.txt --width 346 --height 260");
+      "  spikems info events.txt --width 346 --height 260\n"
+      "  spikems info models/spikems-default.safetensors");
   cmd->callback([args] {
     spikems::install_interrupt_flag();
     spikems::ReadOptions ro;
@@ -215,6 +219,18 @@ void add(CLI::App& app) {
     for (size_t i = 0; i < args->files.size(); ++i) {
       const auto& f = args->files[i];
       try {
+        if (f.size() > 12 && f.compare(f.size() - 12, 12, ".safetensors") == 0) {
+          const spikems::ModelSpec m = spikems::load_model(f);  // validates, names the file
+          if (args->json) {
+            nlohmann::json j = spikems::model_summary(m);
+            j["file"] = f;
+            all.push_back(std::move(j));
+          } else {
+            if (i) std::printf("\n");
+            std::fputs(spikems::model_summary_text(f, m).c_str(), stdout);
+          }
+          continue;
+        }
         Stats s = gather(f, ro);
         if (args->json)
           all.push_back(to_json(f, s));

@@ -9,6 +9,7 @@
 #include "core/events/event_ops.h"
 #include "core/events/formats/npy.h"
 #include "core/events/io.h"
+#include "core/model/model_file.h"
 #include "core/viz/event_frame.h"
 #include "core/viz/image.h"
 
@@ -135,6 +136,49 @@ TEST(CliInfoConvertRender, InfoNumbersOnASmallTextFile) {
       0);
   EXPECT_NE(out.find("events        6"), std::string::npos) << out;
   EXPECT_NE(out.find("nope.txt"), std::string::npos) << out;
+}
+
+// A model file: the 3-level U-Net with skips (layer 5 takes layer 2's spikes, layer 6 layer
+// 1's; 1-based), 2 ms steps, a 6 ms output gate and calibration metadata. Its shortest path is
+// layer 1 -> layer 6: 2 steps; the longest, every layer: 6.
+TEST(CliInfoConvertRender, InfoDescribesAModelFile) {
+  std::string dir = test::scratch_dir();
+  ModelSpec m = spikems_architecture(true, Discretisation::IIR, {4, 6, 8}, {}, true);
+  m.name = "tiny-unet";
+  m.time_step_ms = 2;
+  m.output_gate_steps = 3;
+  m.training = {{"steps", 40},
+                {"wall_seconds", 12.5},
+                {"calibration",
+                 {{"factor", 1.5},
+                  {"output_threshold_scale", 1.5},
+                  {"criterion", "iou"},
+                  {"score", 31.25},
+                  {"data", {"data/val"}}}}};
+  const std::string path = dir + "/m.safetensors";
+  save_model(path, m);
+  std::string out;
+  ASSERT_EQ(run_command(spikems_binary() + " info " + q(path), &out), 0) << out;
+  for (const char* want :
+       {"\"tiny-unet\", spiking network, 6 layers", "after 2 (through the skips) to 6 steps",
+        "any sensor size", "2 -> 4, 6, 8, 6, 4(+2), 2(+1)", "output gate   6 ms (3 steps)",
+        "θ x 1.5, by iou 31.2 % on data/val", "training      40 steps, 12 s"})
+    EXPECT_NE(out.find(want), std::string::npos) << want << "\n" << out;
+  ASSERT_EQ(run_command(spikems_binary() + " info --json " + q(path), &out), 0) << out;
+  const auto j = nlohmann::json::parse(out).at(0);
+  EXPECT_EQ(j["file"], path);
+  EXPECT_EQ(j["type"], "snn");
+  EXPECT_EQ(j["layers"].size(), 6u);
+  EXPECT_EQ(j["layers"][4]["skip_from"], 1);
+  EXPECT_EQ(j["weights"], int64_t(2 * 4 + 4 * 6 + 6 * 8 + 8 * 6 + 12 * 4 + 8 * 2) * 9);
+  EXPECT_EQ(j["latency_steps"], 6);
+  EXPECT_EQ(j["shortest_path_steps"], 2);
+  EXPECT_DOUBLE_EQ(j["output_gate_ms"].get<double>(), 6.0);
+  EXPECT_DOUBLE_EQ(j["calibration"]["output_threshold_scale"].get<double>(), 1.5);
+  // A broken model file fails naming it, as an event file would.
+  const std::string bad = write_text(dir, "bad.safetensors", "not a model");
+  EXPECT_EQ(run_command(spikems_binary() + " info " + q(bad), &out), 1);
+  EXPECT_NE(out.find("bad.safetensors"), std::string::npos) << out;
 }
 
 TEST(CliInfoConvertRender, ConvertTimeRangeTextToText) {
