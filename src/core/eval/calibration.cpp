@@ -7,18 +7,10 @@
 #include "core/eval/results.h"
 #include "core/model/output_threshold.h"
 #include "core/util/error.h"
+#include "core/util/text_format.h"
 
 namespace spikems {
 
-namespace {
-
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
-
-}  // namespace
 
 CalibrationResult calibrate(const CalibrationOptions& opt) {
   if (opt.criterion != "event-iou" && opt.criterion != "iou")

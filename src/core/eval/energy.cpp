@@ -14,6 +14,7 @@
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
 #include "core/util/progress.h"
+#include "core/util/text_format.h"
 
 namespace spikems {
 
@@ -113,12 +114,6 @@ void finish_report(EnergyReport& r) {
 }
 
 namespace {
-
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
 
 std::string kind_name(LayerKind k) {
   return k == LayerKind::ConvTranspose ? "convT" : "conv";

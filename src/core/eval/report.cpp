@@ -8,6 +8,7 @@
 #include <map>
 
 #include "core/util/error.h"
+#include "core/util/text_format.h"
 #include "core/viz/event_frame.h"
 #include "core/viz/html_report.h"
 #include "core/viz/svg_plot.h"
@@ -47,12 +48,6 @@ Image example_image(const ExampleWindow& w) {
 }
 
 namespace {
-
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
 
 std::string ms(int64_t us) {
   return fmt("%g", double(us) / 1000.0);

@@ -6,6 +6,7 @@
 
 #include "core/util/atomic_file.h"
 #include "core/util/error.h"
+#include "core/util/text_format.h"
 
 namespace spikems {
 
@@ -124,12 +125,6 @@ nlohmann::ordered_json row_json(const WindowSummary& w, bool with_sequences) {
   else
     j["event_counts"] = nullptr;
   return j;
-}
-
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
 }
 
 std::string csv_field(const std::string& s) {

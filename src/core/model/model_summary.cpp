@@ -1,4 +1,5 @@
 #include "core/model/model_summary.h"
+#include "core/util/text_format.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -7,12 +8,6 @@
 namespace spikems {
 
 namespace {
-
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
 
 // A value of the free-form training metadata, or null when absent.
 nlohmann::json at_path(const nlohmann::json& j, std::initializer_list<const char*> keys) {
