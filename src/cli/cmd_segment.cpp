@@ -155,6 +155,15 @@ void print_stats(const Segmenter& seg, double wall_s) {
                  double(st[k].visits) / steps, st[k].seconds * 1e6 / steps);
   }
   std::fprintf(stderr, "%-6s %10s %12s %12s %10s %14" PRIu64 "\n", "total", "", "", "", "", syn);
+  const StreamingNetwork& net = seg.network();
+  if (net.output_gate_steps() > 0) {
+    const uint64_t all = net.gate_kept() + net.gate_removed();
+    std::fprintf(stderr,
+                 "output gate %d steps: kept %" PRIu64 " of the last layer's %" PRIu64
+                 " spikes (%.1f %%)\n",
+                 net.output_gate_steps(), net.gate_kept(), all,
+                 all ? 100.0 * double(net.gate_kept()) / double(all) : 0.0);
+  }
   const double sim_s = double(seg.steps()) * double(seg.step_us()) * 1e-6;
   std::fprintf(
       stderr,

@@ -104,6 +104,8 @@ void StreamingNetwork::gate_outputs(std::vector<uint32_t>* outputs, size_t n) {
     size_t kept = 0;
     for (const uint32_t i : o)
       if (s - gate_last_[gate_div_c_(i)] < gate_) o[kept++] = i;
+    gate_kept_ += kept;
+    gate_removed_ += o.size() - kept;
     o.resize(kept);
   }
 }

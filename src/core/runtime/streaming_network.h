@@ -143,6 +143,9 @@ class StreamingNetwork {
   // where its pixel had an input event in steps s-K+1 .. s. The last layer's own dynamics are
   // untouched (the gate acts after its neurons), so its stats count the spikes before it.
   int output_gate_steps() const { return gate_; }
+  // Output spikes the gate let through and those it removed, so far.
+  uint64_t gate_kept() const { return gate_kept_; }
+  uint64_t gate_removed() const { return gate_removed_; }
 
  private:
   int h_, w_;                  // the caller's sensor
@@ -210,7 +213,8 @@ class StreamingNetwork {
   FastDiv gate_div_c_;  // by the output's channels
   std::vector<int64_t> gate_last_;
   std::deque<std::pair<int64_t, std::vector<uint32_t>>> gate_pending_;
-  std::vector<std::vector<uint32_t>> gate_spare_;                   // buffers to reuse
+  std::vector<std::vector<uint32_t>> gate_spare_;  // buffers to reuse
+  uint64_t gate_kept_ = 0, gate_removed_ = 0;
   void gate_record(const std::vector<uint32_t>* inputs, size_t n);  // steps taken_ ..
   void gate_outputs(std::vector<uint32_t>* outputs, size_t n);      // steps t_ .. t_+n-1
 };

@@ -905,6 +905,11 @@ TEST(StreamingNetwork, OutputGateKeepsOutputsAtPixelsWithRecentEvents) {
     EXPECT_EQ(gated.back().spikes.sum(), kept);
     StreamingNetwork net(g, kSkipH, kSkipW);
     EXPECT_EQ(net.output_gate_steps(), K);
+    const auto count_after = [&] {  // checked once the input has run
+      EXPECT_EQ(double(net.gate_kept()), kept);
+      EXPECT_EQ(double(net.gate_removed()), removed);
+      EXPECT_EQ(net.stats().back().out_spikes, net.gate_kept() + net.gate_removed());
+    };
     for (int t = 0; t < input.T; ++t) {
       auto o = net.step(spikes_at(input, t));
       std::sort(o.begin(), o.end());
@@ -913,6 +918,7 @@ TEST(StreamingNetwork, OutputGateKeepsOutputsAtPixelsWithRecentEvents) {
         ASSERT_EQ(sorted_layer_spikes(net, k), spikes_at(gated[k].spikes, t))
             << "step " << t << " layer " << k;
     }
+    count_after();
     for (int threads : {1, 2, 3}) {
       SCOPED_TRACE(std::to_string(threads) + " threads");
       expect_blocks_identical(g, make_input(47, kSkipH, kSkipW, false, 44), threads);
