@@ -11,7 +11,6 @@
 
 namespace spikems {
 
-
 CalibrationResult calibrate(const CalibrationOptions& opt) {
   if (opt.criterion != "event-iou" && opt.criterion != "iou")
     fail("--criterion", "", "'" + opt.criterion + "' is not a criterion: use event-iou or iou");
@@ -24,9 +23,8 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
   e.split = opt.split;
   e.windows_us = {opt.window_us};
   e.output_thresholds = factors;
-  std::vector<int64_t> gates = opt.gates_us;
-  std::sort(gates.begin(), gates.end());
-  e.output_gates_us = gates;
+  e.output_gates_us = opt.gates_us;
+  std::sort(e.output_gates_us.begin(), e.output_gates_us.end());
   e.threads = opt.threads;
   e.max_seconds = opt.max_seconds;
   e.progress = opt.progress;
@@ -62,11 +60,11 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
   }
   for (size_t i = 1; i < r.points.size(); ++i) {
     const CalibrationPoint &a = r.points[i], &b = r.points[r.best];
+    // Ties (within rounding): the factor nearer 1, then the shorter gate.
+    const double la = std::abs(std::log(a.factor)), lb = std::abs(std::log(b.factor));
     const bool better = a.score > b.score + 1e-9 ||
                         (a.score >= b.score - 1e-9 &&
-                         (std::abs(std::log(a.factor)) < std::abs(std::log(b.factor)) - 1e-12 ||
-                          (std::abs(std::log(a.factor)) <= std::abs(std::log(b.factor)) + 1e-12 &&
-                           a.gate_steps < b.gate_steps)));
+                         (la < lb - 1e-12 || (la <= lb + 1e-12 && a.gate_steps < b.gate_steps)));
     if (better) r.best = i;
   }
   return r;

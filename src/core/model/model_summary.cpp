@@ -1,9 +1,9 @@
 #include "core/model/model_summary.h"
-#include "core/util/text_format.h"
 
 #include <algorithm>
-#include <cstdio>
 #include <vector>
+
+#include "core/util/text_format.h"
 
 namespace spikems {
 
@@ -84,9 +84,9 @@ nlohmann::json model_summary(const ModelSpec& m) {
 std::string model_summary_text(const std::string& path, const ModelSpec& m) {
   const nlohmann::json j = model_summary(m);
   std::string out = path + "\n";
-  auto line = [&](const char* key, const std::string& v) {
-    out += "  " + std::string(key) +
-           std::string(14 - std::min<size_t>(13, std::string(key).size()), ' ') + v + "\n";
+  auto line = [&](std::string key, const std::string& v) {
+    key.resize(std::max<size_t>(14, key.size() + 1), ' ');  // values in one column
+    out += "  " + key + v + "\n";
   };
   const bool snn = m.type == ModelType::SNN;
   line("model", "\"" + m.name + "\", " + (snn ? "spiking network" : "ANN-2D baseline") + ", " +

@@ -21,7 +21,9 @@ ModelSpec with_output_gate(ModelSpec model, int64_t gate_us, const std::string& 
          "output gate of " + ms + " ms is not a whole number of the model's " +
              std::to_string(model.time_step_ms) + " ms steps");
   if (gate_us / step_us > kMaxOutputGateSteps)
-    fail(source, "", "output gate of " + ms + " ms is longer than 100000 steps");
+    fail(source, "",
+         "output gate of " + ms + " ms is longer than " + std::to_string(kMaxOutputGateSteps) +
+             " steps");
   model.output_gate_steps = int(gate_us / step_us);
   return model;
 }
