@@ -53,9 +53,13 @@ TEST(Ann2dTorch, GroupedFeaturesEqualTheCoarseBinning) {
   EXPECT_THROW(ann_feature_tensor(spikes / ts, w0, ts, 5), Error);
 }
 
-TEST(Ann2dTorch, ForwardEqualsTheCoreForward) {
+// Without and with U-Net skips (the input then padded at the bottom and right to a size the
+// skips meet at, the output cropped back), on sizes that need it.
+class Ann2dTorchSkips : public ::testing::TestWithParam<bool> {};
+
+TEST_P(Ann2dTorchSkips, ForwardEqualsTheCoreForward) {
   torch::manual_seed(5);
-  Ann2dNetwork net(ann2d_architecture());  // PyTorch's default initialisation
+  Ann2dNetwork net(ann2d_architecture({16, 32, 64}, GetParam()));  // PyTorch's initialisation
   const ModelSpec spec = net->to_spec();
   for (const auto& l : spec.layers) ASSERT_EQ(l.bias.size(), size_t(l.out_channels));
   const Ann2dForward core(spec);
@@ -76,6 +80,41 @@ TEST(Ann2dTorch, ForwardEqualsTheCoreForward) {
     EXPECT_LT(err, 1e-5 * std::max(1.0, scale)) << H << "x" << W;
     EXPECT_GT(scale, 1e-4);  // not a trivially zero output
   }
+}
+
+INSTANTIATE_TEST_SUITE_P(Ann2d, Ann2dTorchSkips, ::testing::Bool());
+
+// The skip's channel order: with the weights of the last layer's predecessor channels zero, the
+// output is layer 0's ReLU output through the last layer's skip weights alone (functional ops).
+TEST(Ann2dTorch, SkipChannelsFollowThePredecessors) {
+  torch::manual_seed(6);
+  Ann2dNetwork net(ann2d_architecture({4, 8, 8}, true));
+  ModelSpec spec = net->to_spec();
+  LayerSpec& last = spec.layers.back();  // transposed: weight [in, out, k, k], in = 4 + 4
+  ASSERT_EQ(last.skip_from, 0);
+  const int pred = spec.layers[spec.layers.size() - 2].out_channels;
+  ASSERT_EQ(last.in_channels, pred + spec.layers[0].out_channels);
+  const size_t per_in = size_t(last.out_channels * last.kernel * last.kernel);
+  std::fill(last.weight.begin(), last.weight.begin() + pred * per_in, 0.f);
+  Ann2dNetwork cut(spec);
+  const Ann2dForward core(spec);
+  torch::NoGradGuard ng;
+  const torch::Tensor x = torch::rand({1, 4, 16, 16});
+  const torch::Tensor y = cut->forward(x);
+  const LayerSpec& first = spec.layers[0];
+  const torch::Tensor w0 = torch::tensor(first.weight).reshape({first.out_channels, 4, 3, 3});
+  const torch::Tensor h0 = torch::relu(torch::conv2d(x, w0, torch::tensor(first.bias), 2, 1));
+  const torch::Tensor wl = torch::tensor(last.weight)
+                               .reshape({last.in_channels, 1, 3, 3})
+                               .narrow(0, pred, last.in_channels - pred);
+  const torch::Tensor want = torch::conv_transpose2d(h0, wl, torch::tensor(last.bias), 2, 1, 1);
+  ASSERT_EQ(want.sizes(), y.sizes());
+  EXPECT_LT((y - want).abs().max().item<double>(), 1e-5);
+  const torch::Tensor xc = x.contiguous();
+  const auto ref = core.forward(
+      std::vector<float>(xc.data_ptr<float>(), xc.data_ptr<float>() + xc.numel()), 16, 16);
+  const torch::Tensor yc = y.contiguous();
+  for (size_t i = 0; i < ref.size(); ++i) ASSERT_NEAR(yc.data_ptr<float>()[i], ref[i], 1e-5) << i;
 }
 
 TEST(Ann2dTorch, BalancedLossByHand) {

@@ -15,8 +15,8 @@ namespace spikems::train {
 namespace {
 
 // An ANN-2D of the given widths with random weights and biases.
-ModelSpec random_ann(const std::vector<int>& widths) {
-  ModelSpec a = ann2d_architecture(widths);
+ModelSpec random_ann(const std::vector<int>& widths, bool skips = false) {
+  ModelSpec a = ann2d_architecture(widths, skips);
   for (auto& l : a.layers) {
     const torch::Tensor w = torch::randn({l.weight_count()});
     l.weight.assign(w.data_ptr<float>(), w.data_ptr<float>() + w.numel());
@@ -81,6 +81,23 @@ TEST(AnnWeightTransfer, MapsEachLayerAsDocumented) {
             std::string::npos);
   EXPECT_NE(message(random_ann({4, 8}), snn).find("4 layers, the network 6"), std::string::npos);
   EXPECT_NE(message(snn, snn).find("not an ANN-2D"), std::string::npos);
+}
+
+// A teacher with the student's skips passes its skip weights on too: every layer but the first
+// (polarities, analytic case above) and the last (one logit broadcast) is the ANN's exactly.
+TEST(AnnWeightTransfer, ATeacherWithSkipsFillsTheSkipChannels) {
+  torch::manual_seed(23);
+  const ModelSpec ann = random_ann({4, 8, 8}, true);
+  const ModelSpec snn = spikems_architecture(true, Discretisation::IIR, {4, 8, 8}, {}, true);
+  const std::vector<torch::Tensor> d = ann_weight_directions(ann, snn, "test");
+  for (size_t k = 1; k + 1 < d.size(); ++k)
+    EXPECT_TRUE(torch::equal(d[k], weights_of(ann.layers[k]))) << k;
+  const torch::Tensor wl = weights_of(ann.layers.back());  // [4 + 4, 1, 3, 3]
+  for (int o = 0; o < 2; ++o) EXPECT_TRUE(torch::equal(d.back().narrow(1, o, 1), wl)) << o;
+  EXPECT_GT(d.back().narrow(0, 4, 4).abs().sum().item<double>(), 0.0);  // the skip's part
+  // A student with only some of the teacher's skips is refused at the first that differs.
+  const ModelSpec some = spikems_architecture(true, Discretisation::IIR, {4, 8, 8}, {}, true, {2});
+  EXPECT_THROW(ann_weight_directions(ann, some, "test"), Error);
 }
 
 TEST(AnnWeightTransfer, DataInitKeepsEachLayersPattern) {

@@ -131,6 +131,17 @@ std::string config_path() {
   return test::source_dir() + "/configs/train/default.toml";
 }
 
+// `spikems eval`'s 20 ms windows over the first 0.2 s of `sequence` (what run.val_full_s = 0.2
+// and run.val_full_window_ms = 20 validate on).
+WindowSummary whole_sensor_eval(const std::string& model, const std::string& sequence) {
+  EvalOptions eo;
+  eo.model_path = model;
+  eo.data = {sequence};
+  eo.windows_us = {20000};
+  eo.max_seconds = 0.2;
+  return evaluate(eo).models.at(0).datasets.at(0).windows.at(0);
+}
+
 TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
   const std::string dir = scratch_dir() + "/run";
   // Scored on windows of its own training data: what this checks is that the whole loop
@@ -162,12 +173,7 @@ TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
   EXPECT_EQ(val[0]["step"], 0);
   EXPECT_GT(val[1]["iou"].get<double>(), val[0]["iou"].get<double>() + 8.0);
   // Whole-sensor validation is `spikems eval`'s number for the model of that step.
-  EvalOptions eo;
-  eo.model_path = dir + "/model.safetensors";
-  eo.data = {data + "/seq_0000.h5"};
-  eo.windows_us = {20000};
-  eo.max_seconds = 0.2;
-  const WindowSummary w = evaluate(eo).models.at(0).datasets.at(0).windows.at(0);
+  const WindowSummary w = whole_sensor_eval(dir + "/model.safetensors", data + "/seq_0000.h5");
   ASSERT_GT(w.windows, 0u);
   EXPECT_NEAR(val[1]["full_iou"].get<double>(), w.iou_mean, 1e-9);
   EXPECT_EQ(val[1]["full_windows"].get<size_t>(), w.windows);
@@ -531,12 +537,7 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   EXPECT_GT(val[1]["full_iou"].get<double>(), val[0]["full_iou"].get<double>() + 10.0);
   const ModelSpec m = load_model(dir + "/model.safetensors");
   EXPECT_EQ(m.type, ModelType::ANN2D);
-  EvalOptions eo;
-  eo.model_path = dir + "/model.safetensors";
-  eo.data = {data + "/seq_0000.h5"};
-  eo.windows_us = {20000};
-  eo.max_seconds = 0.2;
-  const WindowSummary w = evaluate(eo).models.at(0).datasets.at(0).windows.at(0);
+  const WindowSummary w = whole_sensor_eval(dir + "/model.safetensors", data + "/seq_0000.h5");
   ASSERT_GT(w.windows, 0u);
   EXPECT_NEAR(val[1]["full_iou"].get<double>(), w.iou_mean, 1e-9);
   // ann2d has no spike trains: L_spike is refused.
@@ -642,6 +643,29 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
   ASSERT_EQ(fl.size(), 40u);
   EXPECT_LT(fl.back()["distill"].get<double>() + fl[38]["distill"].get<double>(),
             0.95 * (fl[0]["distill"].get<double>() + fl[1]["distill"].get<double>()));
+}
+
+// The ANN-2D with U-Net skips (model.skips on an ann2d): trained through the same loop, its
+// file has the skips and `spikems eval` (the core's forward, the sensor padded to a size the
+// skips meet at) scores it exactly as the trainer's whole-sensor validation (LibTorch).
+TEST(Trainer, Ann2dWithSkipsTrainsAndEvalAgrees) {
+  const std::string dir = scratch_dir() + "/ann-skips";
+  const std::string data = scratch_dir() + "/data";
+  auto ov = one_sequence_overrides(data, 20);
+  for (const char* k : {"model.type=ann2d", "model.skips=true", "sample.warmup_ms=0",
+                        "sample.centred_fraction=1.0", "loss.kind=bce", "optim.lr=0.003",
+                        "run.val_every=20", "run.val_full_s=0.2", "run.val_full_window_ms=20"})
+    ov.push_back(k);
+  EXPECT_EQ(train_quietly(ov, dir).steps, 20);
+  const ModelSpec m = load_model(dir + "/model.safetensors");
+  EXPECT_EQ(m.type, ModelType::ANN2D);
+  EXPECT_TRUE(m.has_skips());
+  auto val = read_log(dir, "val");
+  ASSERT_FALSE(val.empty());
+  const WindowSummary w = whole_sensor_eval(dir + "/model.safetensors", data + "/seq_0000.h5");
+  ASSERT_GT(w.windows, 0u);
+  EXPECT_GT(w.iou_mean, 0.0);
+  EXPECT_NEAR(val.back()["full_iou"].get<double>(), w.iou_mean, 1e-9);
 }
 
 // loss.rate_ceilings / rate_floors: each hidden layer pays floor_weight * (rate / its ceiling -

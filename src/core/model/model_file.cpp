@@ -89,8 +89,6 @@ void ModelSpec::validate(const std::string& src) const {
       fail(src, where,
            "skip_from must name an earlier layer other than the predecessor (0.." +
                std::to_string(int(k) - 2) + "), got " + std::to_string(l.skip_from));
-    if (l.skip_from >= 0 && type != ModelType::SNN)
-      fail(src, where, "skip connections are supported in spiking models only");
     const int fed = k == 0 ? l.in_channels
                            : layers[k - 1].out_channels +
                                  (l.skip_from >= 0 ? layers[size_t(l.skip_from)].out_channels : 0);
@@ -306,8 +304,9 @@ ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<
   return s;
 }
 
-ModelSpec ann2d_architecture(const std::vector<int>& widths) {
-  ModelSpec s = spikems_architecture(true, Discretisation::IIR, widths);
+ModelSpec ann2d_architecture(const std::vector<int>& widths, bool skips,
+                             const std::vector<int>& skip_levels) {
+  ModelSpec s = spikems_architecture(true, Discretisation::IIR, widths, {}, skips, skip_levels);
   s.name = "ann2d";
   s.type = ModelType::ANN2D;
   s.layers.front().in_channels = 4;

@@ -136,7 +136,10 @@ void check_widths(const std::vector<int>& widths, const std::string& where);
 // The ANN-2D baseline (EVDodgeNet-like): the same 3x3 stride-2 layers and channel widths,
 // padding 1 (output_padding 1 for the transposed ones), ReLU after each but the last, biases;
 // 4 input channels (ann_features.h) and one output channel, the logit of "moving". Zero weights.
-ModelSpec ann2d_architecture(const std::vector<int>& widths = {16, 32, 64});
+// skips / skip_levels: U-Net skip connections exactly as spikems_architecture places them, so
+// a teacher with skips has its student's shape layer for layer.
+ModelSpec ann2d_architecture(const std::vector<int>& widths = {16, 32, 64}, bool skips = false,
+                             const std::vector<int>& skip_levels = {});
 
 ModelSpec load_model(const std::string& path);
 void save_model(const std::string& path, const ModelSpec& spec);  // atomic

@@ -1,6 +1,7 @@
 #include "core/runtime/ann2d_network.h"
 
 #include <algorithm>
+#include <tuple>
 
 #include "core/runtime/ann_features.h"
 #include "core/util/error.h"
@@ -69,8 +70,22 @@ std::vector<float> Ann2dForward::forward(const std::vector<float>& features, int
     fail(model_.name, "", "ANN-2D input must be 4 x H x W features");
   std::vector<float> x = features, y;
   int h = H, w = W;
+  if (model_.has_skips()) {  // zeros at the bottom and right up to a size the skips meet at
+    std::tie(h, w) = model_.fitted_input_size(H, W);
+    model_.check_input_size(h, w, model_.name);
+    x.assign(size_t(kAnnFeatureChannels) * h * w, 0.f);
+    for (int c = 0; c < kAnnFeatureChannels; ++c)
+      for (int r = 0; r < H; ++r)
+        std::copy_n(features.data() + (size_t(c) * H + r) * W, W,
+                    x.data() + (size_t(c) * h + r) * w);
+  }
+  std::vector<std::vector<float>> kept(model_.layers.size());  // outputs that skips read
   for (size_t k = 0; k < model_.layers.size(); ++k) {
     const LayerSpec& l = model_.layers[k];
+    if (l.skip_from >= 0) {  // [C_pred, h, w] then the skip source's channels (same size)
+      const auto& src = kept[size_t(l.skip_from)];
+      x.insert(x.end(), src.begin(), src.end());
+    }
     const int ho = l.output_size(h), wo = l.output_size(w);
     if (ho < 1 || wo < 1) fail(model_.name, "", "input too small for the network");
     layer_forward(l, x, h, w, y, ho, wo);
@@ -79,6 +94,11 @@ std::vector<float> Ann2dForward::forward(const std::vector<float>& features, int
     std::swap(x, y);
     h = ho;
     w = wo;
+    for (const auto& m : model_.layers)
+      if (m.skip_from == int(k)) {
+        kept[k] = x;
+        break;
+      }
   }
   std::vector<float> out(size_t(H) * size_t(W), 0.f);  // top-left aligned, channel 0
   for (int r = 0; r < std::min(H, h); ++r)

@@ -208,8 +208,8 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("model", "skips", c.skips);
   b.bind("model", "readout", c.readout);
   b.bind("model", "output_gate_ms", c.output_gate_ms);
-  if (c.skips && (!c.padded || c.type != "snn"))
-    b.bad("model", "skips", "skip connections need a spiking model with padded = true");
+  if (c.skips && c.type == "snn" && !c.padded)
+    b.bad("model", "skips", "skip connections need padded = true");
   std::vector<double> levels(c.skip_levels.begin(), c.skip_levels.end());
   b.bind_list("model", "skip_levels", levels);
   c.skip_levels.clear();

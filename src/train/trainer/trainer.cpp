@@ -38,7 +38,8 @@ namespace {
 
 ModelSpec initial_spec(const TrainConfig& c) {
   ModelSpec spec;
-  if (c.init == "data" && c.type == "ann2d") return ann2d_architecture(c.channels);
+  if (c.init == "data" && c.type == "ann2d")
+    return ann2d_architecture(c.channels, c.skips, c.skip_levels);
   if (c.init != "data") {
     spec = load_model(c.init);  // fine-tuning: geometry and neurons from the file
   } else {

@@ -27,7 +27,10 @@ std::vector<torch::Tensor> ann_weight_directions(const ModelSpec& ann, const Mod
     const bool first = k == 0, last = k + 1 == snn.layers.size();
     const int pred_in =
         s.skip_from >= 0 ? s.in_channels - snn.layers[s.skip_from].out_channels : s.in_channels;
-    if (first ? (a.in_channels != 4 || s.in_channels != 2) : a.in_channels != pred_in)
+    // A teacher with the same skip feeds every input channel; one without it, the predecessor's.
+    const bool same_skip = a.skip_from >= 0 && a.skip_from == s.skip_from;
+    const int fed = same_skip ? s.in_channels : pred_in;
+    if (first ? (a.in_channels != 4 || s.in_channels != 2) : a.in_channels != fed)
       bad(k, "other input channels");
     if (last ? a.out_channels != 1 : a.out_channels != s.out_channels)
       bad(k, "other output channels");
@@ -47,8 +50,9 @@ std::vector<torch::Tensor> ann_weight_directions(const ModelSpec& ann, const Mod
       TORCH_CHECK(!transposed, "the first layer is a convolution");
       d.copy_(std::log(2.0) * w.narrow(1, 0, 2) + 0.5 * w.narrow(1, 2, 2));
     } else {
-      // Input channels first: the predecessor's, then the skip's (left at zero).
-      torch::Tensor block = d.narrow(in_dim, 0, pred_in);
+      // Input channels first: the predecessor's, then the skip's (zero unless the teacher
+      // has the same skip).
+      torch::Tensor block = d.narrow(in_dim, 0, fed);
       block.copy_(last ? w.expand_as(block) : w);
     }
     out.push_back(d);

@@ -311,12 +311,25 @@ TEST(ModelFile, SkipFromRoundTripsAndIsValidated) {
   b.layers[4].skip_from = -1;
   expect_error([&] { b.validate("m"); }, {"layer 4", "takes 12 channels"});
 
-  // The ANN-2D baseline has no skips.
-  ModelSpec a = ann2d_architecture({4, 6, 8});
-  a.layers[4].skip_from = 1;
-  a.layers[4].in_channels += a.layers[1].out_channels;
+  // The ANN-2D with skips: the same layers and skips as the spiking network, 4 input channels
+  // and one output; it round-trips like any model, and its chain is checked the same way.
+  ModelSpec a = ann2d_architecture({4, 6, 8}, true);
+  for (size_t k = 0; k < 6; ++k) {
+    EXPECT_EQ(a.layers[k].skip_from, skip[k]) << k;
+    EXPECT_EQ(a.layers[k].in_channels, k == 0 ? 4 : ci[k]) << k;
+  }
+  EXPECT_EQ(a.layers[5].out_channels, 1);
+  a.layers[4].weight[3] = 0.25f;
+  a.layers[5].bias[0] = -1.f;
+  save_model(dir + "/ann-skip.safetensors", a);
+  const ModelSpec ra = load_model(dir + "/ann-skip.safetensors");
+  EXPECT_EQ(ra.type, ModelType::ANN2D);
+  EXPECT_EQ(ra.layers[4].skip_from, 1);
+  EXPECT_EQ(ra.layers[4].weight, a.layers[4].weight);
+  EXPECT_EQ(ra.layers[5].bias, a.layers[5].bias);
+  a.layers[4].in_channels -= a.layers[1].out_channels;
   a.layers[4].weight.resize(size_t(a.layers[4].weight_count()));
-  expect_error([&] { a.validate("ann"); }, {"layer 4", "spiking models only"});
+  expect_error([&] { a.validate("ann"); }, {"layer 4", "skip from layer 1"});
 }
 
 // Sizes for the 3-level padded network with skips: a conv (3x3, stride 2, padding 1) gives
