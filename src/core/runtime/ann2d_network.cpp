@@ -94,11 +94,9 @@ std::vector<float> Ann2dForward::forward(const std::vector<float>& features, int
     std::swap(x, y);
     h = ho;
     w = wo;
-    for (const auto& m : model_.layers)
-      if (m.skip_from == int(k)) {
-        kept[k] = x;
-        break;
-      }
+    if (std::any_of(model_.layers.begin(), model_.layers.end(),
+                    [k](const LayerSpec& m) { return m.skip_from == int(k); }))
+      kept[k] = x;
   }
   std::vector<float> out(size_t(H) * size_t(W), 0.f);  // top-left aligned, channel 0
   for (int r = 0; r < std::min(H, h); ++r)

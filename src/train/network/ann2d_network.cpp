@@ -49,13 +49,7 @@ Ann2dNetworkImpl::Ann2dNetworkImpl(const ModelSpec& spec) : spec_(spec) {
 
 std::vector<torch::Tensor> Ann2dNetworkImpl::forward_all(const torch::Tensor& x) {
   std::vector<torch::Tensor> out;
-  torch::Tensor s = x;
-  if (spec_.has_skips()) {  // zeros at the bottom and right up to a size the skips meet at
-    const auto [fh, fw] = spec_.fitted_input_size(int(x.size(2)), int(x.size(3)));
-    spec_.check_input_size(fh, fw, spec_.name);
-    if (fh != x.size(2) || fw != x.size(3))
-      s = torch::constant_pad_nd(x, {0, fw - x.size(3), 0, fh - x.size(2)}, 0);
-  }
+  torch::Tensor s = pad_for_skips(spec_, x);
   for (size_t k = 0; k < layers_.size(); ++k) {
     const int skip = spec_.layers[k].skip_from;
     if (skip >= 0) s = torch::cat({s, out[size_t(skip)]}, 1);  // the predecessor's, then the skip's

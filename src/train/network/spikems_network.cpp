@@ -16,14 +16,7 @@ SpikeMSNetworkImpl::SpikeMSNetworkImpl(const ModelSpec& spec, SpikeGradient grad
 
 torch::Tensor SpikeMSNetworkImpl::input_of(size_t k, const torch::Tensor& x,
                                            const std::vector<torch::Tensor>& out) const {
-  if (k == 0) {
-    if (!spec_.has_skips()) return x;
-    const int64_t d = x.dim(), h = x.size(d - 2), w = x.size(d - 1);
-    const auto [fh, fw] = spec_.fitted_input_size(int(h), int(w));
-    spec_.check_input_size(fh, fw, spec_.name);
-    if (fh == h && fw == w) return x;
-    return torch::constant_pad_nd(x, {0, fw - w, 0, fh - h}, 0);  // bottom and right
-  }
+  if (k == 0) return pad_for_skips(spec_, x);
   const int skip = spec_.layers[k].skip_from;
   if (skip < 0) return out[k - 1];
   return torch::cat({out[k - 1], out[size_t(skip)]}, 2);  // [T, B, C, H, W]: channels
@@ -126,6 +119,14 @@ torch::Tensor align_to_input(const torch::Tensor& y, int64_t height, int64_t wid
   const int64_t ph = height - c.size(d - 2), pw = width - c.size(d - 1);
   if (ph == 0 && pw == 0) return c;
   return torch::constant_pad_nd(c, {0, pw, 0, ph}, 0);
+}
+
+torch::Tensor pad_for_skips(const ModelSpec& spec, const torch::Tensor& x) {
+  if (!spec.has_skips()) return x;
+  const int64_t d = x.dim();
+  const auto [fh, fw] = spec.fitted_input_size(int(x.size(d - 2)), int(x.size(d - 1)));
+  spec.check_input_size(fh, fw, spec.name);
+  return align_to_input(x, fh, fw);  // fh, fw >= the input's: pads only
 }
 
 }  // namespace spikems::train

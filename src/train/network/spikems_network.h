@@ -69,4 +69,9 @@ torch::Tensor output_gate_mask(const torch::Tensor& x, int64_t steps, int64_t he
 // Crops or zero-pads the last two dims of y to (height, width), top-left aligned.
 torch::Tensor align_to_input(const torch::Tensor& y, int64_t height, int64_t width);
 
+// x (last two dims H, W) zero-padded at the bottom and right to the size where `spec`'s skips
+// meet (ModelSpec::fitted_input_size); x itself for a model without skips. Throws Error when no
+// size fits. Both the spiking network and the ANN-2D start with it.
+torch::Tensor pad_for_skips(const ModelSpec& spec, const torch::Tensor& x);
+
 }  // namespace spikems::train
