@@ -175,6 +175,16 @@ TEST(CliInfoConvertRender, InfoDescribesAModelFile) {
   EXPECT_EQ(j["shortest_path_steps"], 2);
   EXPECT_DOUBLE_EQ(j["output_gate_ms"].get<double>(), 6.0);
   EXPECT_DOUBLE_EQ(j["calibration"]["output_threshold_scale"].get<double>(), 1.5);
+  // An ANN-2D with two past frames: 12 input channels, its frames named in both outputs.
+  const std::string ann = dir + "/ann.safetensors";
+  save_model(ann, ann2d_architecture({4, 6}, false, {}, 2));
+  ASSERT_EQ(run_command(spikems_binary() + " info " + q(ann), &out), 0) << out;
+  for (const char* want :
+       {"ANN-2D baseline, 4 layers", "12 -> 4, 6, 4, 1",
+        "input frames  the window's and the 2 windows of the same length before it"})
+    EXPECT_NE(out.find(want), std::string::npos) << want << "\n" << out;
+  ASSERT_EQ(run_command(spikems_binary() + " info --json " + q(ann), &out), 0) << out;
+  EXPECT_EQ(nlohmann::json::parse(out).at(0)["history_frames"], 2);
   // A broken model file fails naming it, as an event file would.
   const std::string bad = write_text(dir, "bad.safetensors", "not a model");
   EXPECT_EQ(run_command(spikems_binary() + " info " + q(bad), &out), 1);

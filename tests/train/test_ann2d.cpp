@@ -53,32 +53,58 @@ TEST(Ann2dTorch, GroupedFeaturesEqualTheCoarseBinning) {
   EXPECT_THROW(ann_feature_tensor(spikes / ts, w0, ts, 5), Error);
 }
 
+// With past frames (model.history): each frame's features equal the core's on that frame's
+// steps, the window's first, then the frames before it, newest first.
+TEST(Ann2dTorch, HistoryFeaturesAreThePastFramesNewestFirst) {
+  torch::manual_seed(7);
+  const int64_t T = 14, B = 2, H = 4, W = 5, w0 = 8, tw = T - w0;  // window 6 steps, 2 past
+  const double ts = 0.5;
+  torch::Tensor spikes = (torch::rand({T, B, 2, H, W}) < 0.2).to(torch::kFloat);
+  const torch::Tensor f = ann_feature_tensor(spikes / ts, w0, ts, 1, 1);
+  ASSERT_EQ(f.sizes(), (std::vector<int64_t>{B, 8, H, W}));
+  for (int64_t b = 0; b < B; ++b)
+    for (int64_t h = 0; h <= 1; ++h) {
+      torch::Tensor win =
+          spikes.narrow(0, w0 - h * tw, tw).select(1, b).to(torch::kUInt8).contiguous();
+      const auto core = ann_features(win.data_ptr<uint8_t>(), int(tw), int(H), int(W));
+      torch::Tensor fb = f[b].narrow(0, 4 * h, 4).contiguous();
+      for (size_t i = 0; i < core.size(); ++i)
+        ASSERT_NEAR(fb.data_ptr<float>()[i], core[i], 1e-6)
+            << "sample " << b << " frame " << h << " value " << i;
+    }
+  // Two past frames of 6 steps need 12 steps before the window; there are 8.
+  EXPECT_THROW(ann_feature_tensor(spikes / ts, w0, ts, 1, 2), Error);
+}
+
 // Without and with U-Net skips (the input then padded at the bottom and right to a size the
 // skips meet at, the output cropped back), on sizes that need it.
 class Ann2dTorchSkips : public ::testing::TestWithParam<bool> {};
 
 TEST_P(Ann2dTorchSkips, ForwardEqualsTheCoreForward) {
   torch::manual_seed(5);
-  Ann2dNetwork net(ann2d_architecture({16, 32, 64}, GetParam()));  // PyTorch's initialisation
-  const ModelSpec spec = net->to_spec();
-  for (const auto& l : spec.layers) ASSERT_EQ(l.bias.size(), size_t(l.out_channels));
-  const Ann2dForward core(spec);
-  // 21 x 30: not a multiple of 8, so the output is cropped / padded to the input.
-  for (auto [H, W] : {std::pair{16, 24}, std::pair{21, 30}}) {
-    torch::Tensor x = torch::rand({1, 4, H, W});
-    torch::NoGradGuard ng;
-    torch::Tensor y = net->forward(x).contiguous();
-    ASSERT_EQ(y.sizes(), (std::vector<int64_t>{1, 1, H, W}));
-    torch::Tensor xc = x.contiguous();
-    const auto ref = core.forward(
-        std::vector<float>(xc.data_ptr<float>(), xc.data_ptr<float>() + xc.numel()), H, W);
-    double err = 0, scale = 0;
-    for (size_t i = 0; i < ref.size(); ++i) {
-      err = std::max(err, double(std::abs(y.data_ptr<float>()[i] - ref[i])));
-      scale = std::max(scale, double(std::abs(ref[i])));
+  // Without and with two past frames (12 input channels).
+  for (int history : {0, 2}) {
+    Ann2dNetwork net(ann2d_architecture({16, 32, 64}, GetParam(), {}, history));  // PyTorch's init
+    const ModelSpec spec = net->to_spec();
+    for (const auto& l : spec.layers) ASSERT_EQ(l.bias.size(), size_t(l.out_channels));
+    const Ann2dForward core(spec);
+    // 21 x 30: not a multiple of 8, so the output is cropped / padded to the input.
+    for (auto [H, W] : {std::pair{16, 24}, std::pair{21, 30}}) {
+      torch::Tensor x = torch::rand({1, 4 * (1 + history), H, W});
+      torch::NoGradGuard ng;
+      torch::Tensor y = net->forward(x).contiguous();
+      ASSERT_EQ(y.sizes(), (std::vector<int64_t>{1, 1, H, W}));
+      torch::Tensor xc = x.contiguous();
+      const auto ref = core.forward(
+          std::vector<float>(xc.data_ptr<float>(), xc.data_ptr<float>() + xc.numel()), H, W);
+      double err = 0, scale = 0;
+      for (size_t i = 0; i < ref.size(); ++i) {
+        err = std::max(err, double(std::abs(y.data_ptr<float>()[i] - ref[i])));
+        scale = std::max(scale, double(std::abs(ref[i])));
+      }
+      EXPECT_LT(err, 1e-5 * std::max(1.0, scale)) << H << "x" << W << ", history " << history;
+      EXPECT_GT(scale, 1e-4);  // not a trivially zero output
     }
-    EXPECT_LT(err, 1e-5 * std::max(1.0, scale)) << H << "x" << W;
-    EXPECT_GT(scale, 1e-4);  // not a trivially zero output
   }
 }
 

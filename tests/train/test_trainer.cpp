@@ -645,27 +645,72 @@ TEST(Trainer, Ann2dBaselineLearnsAndEvalScoresItsFile) {
             0.95 * (fl[0]["distill"].get<double>() + fl[1]["distill"].get<double>()));
 }
 
-// The ANN-2D with U-Net skips (model.skips on an ann2d): trained through the same loop, its
-// file has the skips and `spikems eval` (the core's forward, the sensor padded to a size the
-// skips meet at) scores it exactly as the trainer's whole-sensor validation (LibTorch).
-TEST(Trainer, Ann2dWithSkipsTrainsAndEvalAgrees) {
-  const std::string dir = scratch_dir() + "/ann-skips";
-  const std::string data = scratch_dir() + "/data";
-  auto ov = one_sequence_overrides(data, 20);
-  for (const char* k : {"model.type=ann2d", "model.skips=true", "sample.warmup_ms=0",
-                        "sample.centred_fraction=1.0", "loss.kind=bce", "optim.lr=0.003",
-                        "run.val_every=20", "run.val_full_s=0.2", "run.val_full_window_ms=20"})
+// An ANN-2D on one short sequence, validated on the whole sensor after `steps` steps.
+std::vector<std::string> ann_overrides(const std::string& data, int steps) {
+  auto ov = one_sequence_overrides(data, steps);
+  for (const char* k : {"model.type=ann2d", "sample.centred_fraction=1.0", "loss.kind=bce",
+                        "optim.lr=0.003", "run.val_full_s=0.2", "run.val_full_window_ms=20"})
     ov.push_back(k);
-  EXPECT_EQ(train_quietly(ov, dir).steps, 20);
+  ov.push_back("run.val_every=" + std::to_string(steps));
+  return ov;
+}
+
+// Trains `ov` in `dir` for `steps` steps; `spikems eval` (the core's forward) must score the
+// file exactly as the trainer's last whole-sensor validation did. Returns the model.
+ModelSpec train_ann_and_check_eval(const std::vector<std::string>& ov, const std::string& dir,
+                                   const std::string& data, int steps) {
+  EXPECT_EQ(train_quietly(ov, dir).steps, steps);
+  auto val = read_log(dir, "val");
+  EXPECT_FALSE(val.empty());
+  const WindowSummary w = whole_sensor_eval(dir + "/model.safetensors", data + "/seq_0000.h5");
+  EXPECT_GT(w.windows, 0u);
+  EXPECT_GT(w.iou_mean, 0.0);
+  if (!val.empty()) EXPECT_NEAR(val.back()["full_iou"].get<double>(), w.iou_mean, 1e-9);
   const ModelSpec m = load_model(dir + "/model.safetensors");
   EXPECT_EQ(m.type, ModelType::ANN2D);
-  EXPECT_TRUE(m.has_skips());
-  auto val = read_log(dir, "val");
-  ASSERT_FALSE(val.empty());
-  const WindowSummary w = whole_sensor_eval(dir + "/model.safetensors", data + "/seq_0000.h5");
-  ASSERT_GT(w.windows, 0u);
-  EXPECT_GT(w.iou_mean, 0.0);
-  EXPECT_NEAR(val.back()["full_iou"].get<double>(), w.iou_mean, 1e-9);
+  return m;
+}
+
+// The ANN-2D with U-Net skips (model.skips on an ann2d): trained through the same loop, its
+// file has the skips and `spikems eval` (the core's forward, the sensor padded to a size the
+// skips meet at) scores it exactly as the trainer's whole-sensor validation.
+TEST(Trainer, Ann2dWithSkipsTrainsAndEvalAgrees) {
+  const std::string scratch = scratch_dir();  // each call empties the folder
+  const std::string data = scratch + "/data";
+  auto ov = ann_overrides(data, 20);
+  ov.push_back("model.skips=true");
+  ov.push_back("sample.warmup_ms=0");
+  EXPECT_TRUE(train_ann_and_check_eval(ov, scratch + "/ann-skips", data, 20).has_skips());
+}
+
+// model.history on an ANN-2D: the past frames come from the warm-up, the file records them,
+// `spikems eval` scores it as the trainer's whole-sensor validation does; a warm-up too short
+// to hold them, or a history on a spiking network, is refused naming the key.
+TEST(Trainer, Ann2dWithHistoryTrainsAndIsChecked) {
+  const std::string scratch = scratch_dir();
+  const std::string data = scratch + "/data";
+  auto ov = ann_overrides(data, 10);
+  ov.push_back("model.history=2");
+  ov.push_back("sample.warmup_ms=20");
+  const ModelSpec m = train_ann_and_check_eval(ov, scratch + "/ann-history", data, 10);
+  EXPECT_EQ(m.ann_history, 2);
+  EXPECT_EQ(m.layers[0].in_channels, 12);
+  auto short_warmup = ov;
+  short_warmup.push_back("sample.warmup_ms=15");
+  try {
+    train_quietly(short_warmup, scratch + "/ann-history-short");
+    ADD_FAILURE() << "a 15 ms warm-up cannot hold two 10 ms frames";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("sample.warmup_ms"), std::string::npos) << e.what();
+  }
+  auto snn = tiny_overrides(1);
+  snn.push_back("model.history=1");
+  try {
+    train_quietly(snn, scratch + "/snn-history");
+    ADD_FAILURE() << "model.history on a spiking network";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("model.history"), std::string::npos) << e.what();
+  }
 }
 
 // loss.rate_ceilings / rate_floors: each hidden layer pays floor_weight * (rate / its ceiling -

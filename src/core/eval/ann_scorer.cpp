@@ -59,8 +59,15 @@ SequenceScore score_ann_sequence(const ModelSpec& model, const LabelledSequence&
       std::vector<std::exception_ptr> errors(feats.size());
       parallel_chunks(int(k1 - k0), opt.threads, [&](int, int j0, int j1) {
         for (int j = j0; j < j1; ++j) try {
-            const SpikeTensor s = bin_events(scored, t0 + (k0 + j) * L, L, bc);
-            feats[size_t(j)] = ann_features(s.data.data(), s.T, H, W);
+            // The window's frame, then its past frames (newest first), each of length L; those
+            // before the first event are empty, as a camera just switched on gives.
+            std::vector<float>& f = feats[size_t(j)];
+            f.clear();
+            for (int h = 0; h <= model.ann_history; ++h) {
+              const SpikeTensor s = bin_events(scored, t0 + (k0 + j - h) * L, L, bc);
+              const std::vector<float> one = ann_features(s.data.data(), s.T, H, W);
+              f.insert(f.end(), one.begin(), one.end());
+            }
             logits[size_t(j)] = net.forward(feats[size_t(j)], H, W);
           } catch (...) {
             errors[size_t(j)] = std::current_exception();

@@ -80,6 +80,12 @@ void ModelSpec::validate(const std::string& src) const {
              std::to_string(output_gate_steps));
   if (output_gate_steps > 0 && type != ModelType::SNN)
     fail(src, "", "an output gate is for spiking models (the ANN-2D's output is gated already)");
+  if (ann_history < 0 || ann_history > kMaxAnnHistory)
+    fail(src, "",
+         "ann_history must be 0 to " + std::to_string(kMaxAnnHistory) + " past frames, got " +
+             std::to_string(ann_history));
+  if (ann_history > 0 && type != ModelType::ANN2D)
+    fail(src, "", "ann_history is for ANN-2D models (a spiking network keeps its own state)");
   for (size_t k = 0; k < layers.size(); ++k) {
     const auto& l = layers[k];
     std::string where = "layer " + std::to_string(k);
@@ -127,9 +133,13 @@ void ModelSpec::validate(const std::string& src) const {
       if (!std::isfinite(v)) fail(src, where, "bias contains NaN or infinity");
   }
   if (type == ModelType::ANN2D &&
-      (layers.front().in_channels != 4 || layers.back().out_channels != 1))
+      (layers.front().in_channels != ann_input_channels() || layers.back().out_channels != 1))
     fail(src, "",
-         "an ANN-2D model takes 4 input channels (ann_features.h) and gives 1 output channel");
+         "an ANN-2D model with " + std::to_string(ann_history) + " past frames takes " +
+             std::to_string(ann_input_channels()) +
+             " input channels (4 per frame, ann_features.h) and gives 1 output channel; its "
+             "first layer has " +
+             std::to_string(layers.front().in_channels));
   if (input_width > 0 && input_height > 0) {
     // The sensor's size: a model with skips runs on it padded to the fitted size.
     const auto [h, w] = has_skips() ? fitted_input_size(input_height, input_width)
@@ -305,11 +315,15 @@ ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<
 }
 
 ModelSpec ann2d_architecture(const std::vector<int>& widths, bool skips,
-                             const std::vector<int>& skip_levels) {
+                             const std::vector<int>& skip_levels, int history) {
+  if (history < 0 || history > kMaxAnnHistory)
+    throw Error("ANN-2D: history must be 0 to " + std::to_string(kMaxAnnHistory) +
+                " past frames, got " + std::to_string(history));
   ModelSpec s = spikems_architecture(true, Discretisation::IIR, widths, {}, skips, skip_levels);
   s.name = "ann2d";
   s.type = ModelType::ANN2D;
-  s.layers.front().in_channels = 4;
+  s.ann_history = history;
+  s.layers.front().in_channels = s.ann_input_channels();
   s.layers.back().out_channels = 1;
   for (auto& l : s.layers) {
     l.weight.assign(size_t(l.weight_count()), 0.f);
@@ -345,6 +359,7 @@ nlohmann::json spec_to_json(const ModelSpec& s) {
   j["input_width"] = s.input_width;
   j["input_height"] = s.input_height;
   if (s.output_gate_steps != 0) j["output_gate_steps"] = s.output_gate_steps;
+  if (s.ann_history != 0) j["ann_history"] = s.ann_history;
   j["training"] = s.training;
   j["layers"] = nlohmann::json::array();
   for (const auto& l : s.layers) {
@@ -385,6 +400,7 @@ ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
     s.input_width = j.value("input_width", 0);
     s.input_height = j.value("input_height", 0);
     s.output_gate_steps = j.value("output_gate_steps", 0);
+    s.ann_history = j.value("ann_history", 0);
     if (j.contains("training")) s.training = j["training"];
     for (size_t k = 0; k < j.at("layers").size(); ++k) {
       const auto& lj = j["layers"][k];

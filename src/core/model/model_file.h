@@ -21,6 +21,7 @@ namespace spikems {
 
 inline constexpr int kModelFormatVersion = 1;
 inline constexpr int kMaxOutputGateSteps = 100000;
+inline constexpr int kMaxAnnHistory = 16;
 
 enum class LayerKind { Conv, ConvTranspose };
 // Refractory kernel shape: the SpikeMS authors' delayed exponential
@@ -82,11 +83,19 @@ struct ModelSpec {
   // synapse from the input: the runtime, the dense reference and the LibTorch network apply it
   // to the last layer's spikes alike. 0: off.
   int output_gate_steps = 0;
+  // ANN-2D only: how many past frames the network sees beside the window's own, each of the
+  // window's length and just before it (docs/model-format.md, "Frame history"). A frame alone
+  // shows edges, not which of them move against the camera's motion; its predecessors do.
+  // The input then has ann_input_channels() channels: the window's 4 features first, then each
+  // past frame's, newest first. 0: the window's frame only.
+  int ann_history = 0;
   nlohmann::json training = nlohmann::json::object();  // free provenance (config, epochs, ...)
 
   // Output spatial size for an input size (through all layers).
   std::pair<int, int> output_size(int height, int width) const;
   bool has_skips() const;
+  // ANN-2D: 4 features (ann_features.h) per frame shown, 4 x (1 + ann_history).
+  int ann_input_channels() const { return 4 * (1 + ann_history); }
   // Checks that an input of this size reaches every layer with a positive size and that each
   // skip connection meets its layer's input at the same size; throws Error naming the layer.
   void check_input_size(int height, int width, const std::string& source) const;
@@ -135,11 +144,12 @@ ModelSpec spikems_architecture(bool padded, Discretisation d = Discretisation::F
 void check_widths(const std::vector<int>& widths, const std::string& where);
 // The ANN-2D baseline (EVDodgeNet-like): the same 3x3 stride-2 layers and channel widths,
 // padding 1 (output_padding 1 for the transposed ones), ReLU after each but the last, biases;
-// 4 input channels (ann_features.h) and one output channel, the logit of "moving". Zero weights.
-// skips / skip_levels: U-Net skip connections exactly as spikems_architecture places them, so
-// a teacher with skips has its student's shape layer for layer.
+// 4 input channels (ann_features.h) per frame and one output channel, the logit of "moving".
+// Zero weights. skips / skip_levels: U-Net skip connections exactly as spikems_architecture
+// places them, so a teacher with skips has its student's shape layer for layer. history: past
+// frames shown beside the window's (ModelSpec::ann_history, 0-16).
 ModelSpec ann2d_architecture(const std::vector<int>& widths = {16, 32, 64}, bool skips = false,
-                             const std::vector<int>& skip_levels = {});
+                             const std::vector<int>& skip_levels = {}, int history = 0);
 
 ModelSpec load_model(const std::string& path);
 void save_model(const std::string& path, const ModelSpec& spec);  // atomic

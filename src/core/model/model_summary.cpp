@@ -63,6 +63,8 @@ nlohmann::json model_summary(const ModelSpec& m) {
     j["shortest_path_steps"] = shortest_path_steps(m);
     j["output_theta"] = m.layers.back().neuron.theta;
     j["output_gate_ms"] = m.output_gate_steps * m.time_step_ms;
+  } else {
+    j["history_frames"] = m.ann_history;  // past frames beside the window's
   }
   const nlohmann::json c = at_path(m.training, {"calibration"});
   if (c.is_object()) {
@@ -117,6 +119,11 @@ std::string model_summary_text(const std::string& path, const ModelSpec& m) {
                                   std::to_string(m.output_gate_steps) + " steps)"
                             : std::string("none"));
   }
+  if (!snn)
+    line("input frames", m.ann_history > 0
+                             ? "the window's and the " + std::to_string(m.ann_history) +
+                                   " windows of the same length before it, newest first"
+                             : std::string("the window's only"));
   if (j.contains("calibration")) {
     const auto& c = j["calibration"];
     std::string v;

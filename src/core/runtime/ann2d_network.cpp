@@ -66,15 +66,16 @@ Ann2dForward::Ann2dForward(ModelSpec model) : model_(std::move(model)) {
 }
 
 std::vector<float> Ann2dForward::forward(const std::vector<float>& features, int H, int W) const {
-  if (H < 1 || W < 1 || features.size() != size_t(kAnnFeatureChannels) * H * W)
-    fail(model_.name, "", "ANN-2D input must be 4 x H x W features");
+  const int C = model_.ann_input_channels();
+  if (H < 1 || W < 1 || features.size() != size_t(C) * H * W)
+    fail(model_.name, "", "ANN-2D input must be " + std::to_string(C) + " x H x W features");
   std::vector<float> x = features, y;
   int h = H, w = W;
   if (model_.has_skips()) {  // zeros at the bottom and right up to a size the skips meet at
     std::tie(h, w) = model_.fitted_input_size(H, W);
     model_.check_input_size(h, w, model_.name);
-    x.assign(size_t(kAnnFeatureChannels) * h * w, 0.f);
-    for (int c = 0; c < kAnnFeatureChannels; ++c)
+    x.assign(size_t(C) * h * w, 0.f);
+    for (int c = 0; c < C; ++c)
       for (int r = 0; r < H; ++r)
         std::copy_n(features.data() + (size_t(c) * H + r) * W, W,
                     x.data() + (size_t(c) * h + r) * w);

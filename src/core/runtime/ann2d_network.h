@@ -17,8 +17,9 @@ class Ann2dForward {
   // Throws Error unless `model` is a valid ANN-2D model.
   explicit Ann2dForward(ModelSpec model);
 
-  // features [4, H, W] -> logits [H, W] of "moving", the output aligned to the input by its
-  // top-left corner (cropped where larger, zero logits where smaller), as the SNN's output.
+  // features [ann_input_channels(), H, W] (the window's frame, then its past frames, newest
+  // first: ann_history_features) -> logits [H, W] of "moving", the output aligned to the input by
+  // its top-left corner (cropped where larger, zero logits where smaller), as the SNN's output.
   std::vector<float> forward(const std::vector<float>& features, int H, int W) const;
 
   const ModelSpec& model() const { return model_; }

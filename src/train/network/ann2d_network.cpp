@@ -74,14 +74,12 @@ ModelSpec Ann2dNetworkImpl::to_spec() const {
   return s;
 }
 
-torch::Tensor ann_feature_tensor(const torch::Tensor& input, int64_t w0, double ts, int64_t group) {
-  torch::NoGradGuard ng;
-  int64_t T = input.size(0) - w0;
-  if (group < 1 || T % group != 0)
-    fail("ann features", "",
-         "the window's " + std::to_string(T) + " steps cannot be merged in runs of " +
-             std::to_string(group));
-  torch::Tensor s = (input.narrow(0, w0, T) * ts > 0.5).to(torch::kFloat);  // [T, B, 2, H, W]
+namespace {
+
+// The 4 features of steps [a, a + T) of input spikes [*, B, 2, H, W] (values 1/Ts).
+torch::Tensor frame_features(const torch::Tensor& input, int64_t a, int64_t T, double ts,
+                             int64_t group) {
+  torch::Tensor s = (input.narrow(0, a, T) * ts > 0.5).to(torch::kFloat);  // [T, B, 2, H, W]
   if (group > 1) {
     auto shape = s.sizes().vec();
     shape[0] = group;
@@ -92,7 +90,28 @@ torch::Tensor ann_feature_tensor(const torch::Tensor& input, int64_t w0, double 
   auto when = (torch::arange(T, s.options()) + 0.5) / double(T);
   torch::Tensor count = s.sum(0);
   torch::Tensor mean_t = (s * when.view({T, 1, 1, 1, 1})).sum(0) / count.clamp_min(1);
-  return torch::cat({torch::log1p(count), mean_t}, 1).contiguous();
+  return torch::cat({torch::log1p(count), mean_t}, 1);
+}
+
+}  // namespace
+
+torch::Tensor ann_feature_tensor(const torch::Tensor& input, int64_t w0, double ts, int64_t group,
+                                 int64_t history) {
+  torch::NoGradGuard ng;
+  const int64_t T = input.size(0) - w0;
+  if (group < 1 || T % group != 0)
+    fail("ann features", "",
+         "the window's " + std::to_string(T) + " steps cannot be merged in runs of " +
+             std::to_string(group));
+  if (history < 0 || history * T > w0)
+    fail("ann features", "",
+         std::to_string(history) + " past frames of " + std::to_string(T) + " steps need " +
+             std::to_string(history * T) + " steps before the window, the sample has " +
+             std::to_string(w0) + " (raise sample.warmup_ms)");
+  std::vector<torch::Tensor> frames;
+  for (int64_t h = 0; h <= history; ++h)
+    frames.push_back(frame_features(input, w0 - h * T, T, ts, group));
+  return torch::cat(frames, 1).contiguous();
 }
 
 }  // namespace spikems::train

@@ -7,6 +7,7 @@
 #include <set>
 #include <sstream>
 
+#include "core/model/model_file.h"
 #include "core/util/error.h"
 
 namespace spikems::train {
@@ -223,6 +224,14 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
     c.skip_levels.push_back(int(v));
   }
   if (!c.skip_levels.empty() && !c.skips) b.bad("model", "skip_levels", "needs model.skips = true");
+  double history = c.history;
+  b.bind("model", "history", history);
+  if (history != std::floor(history) || history < 0 || history > kMaxAnnHistory)
+    b.bad("model", "history",
+          "must be a whole number of past frames in 0.." + std::to_string(kMaxAnnHistory));
+  c.history = int(history);
+  if (c.history > 0 && c.type != "ann2d")
+    b.bad("model", "history", "is for model.type = \"ann2d\" (a spiking network keeps state)");
   b.bind("model", "tau_rho", c.tau_rho);
   if (c.tau_rho != 0 && !(c.tau_rho >= 0.01 && c.tau_rho <= 100))
     b.bad("model", "tau_rho", "must lie in 0.01..100 (or 0: the model's own)");

@@ -41,6 +41,9 @@ struct TrainConfig {
   // With skips: only these encoder levels (1-based, 1 = the finest) feed the decoder; empty =
   // every level. Leaving the finest out removes the output's two-layer path from the input.
   std::vector<int> skip_levels;
+  // ANN-2D only: past frames shown beside the window's, each as long as the window and just
+  // before it (ModelSpec::ann_history); sample.warmup_ms must cover them. 0: the window alone.
+  int history = 0;
   // The surrogate's width in units of theta for every layer (0: keep the model's, the
   // authors' 0.3). Training only: the forward pass does not depend on it.
   double tau_rho = 0;

@@ -39,7 +39,7 @@ namespace {
 ModelSpec initial_spec(const TrainConfig& c) {
   ModelSpec spec;
   if (c.init == "data" && c.type == "ann2d")
-    return ann2d_architecture(c.channels, c.skips, c.skip_levels);
+    return ann2d_architecture(c.channels, c.skips, c.skip_levels, c.history);
   if (c.init != "data") {
     spec = load_model(c.init);  // fine-tuning: geometry and neurons from the file
   } else {
@@ -156,7 +156,8 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
     std::vector<torch::Tensor> t_hidden;
     {
       torch::NoGradGuard ng;
-      const torch::Tensor feat = ann_feature_tensor(bt.input, w0, ts, teacher_group);
+      const torch::Tensor feat =
+          ann_feature_tensor(bt.input, w0, ts, teacher_group, teacher->history());
       std::vector<torch::Tensor> t_layers = teacher->forward_all(feat);
       q = torch::sigmoid(align_to_input(t_layers.back(), H, W).squeeze(1));
       t_layers.pop_back();
@@ -183,12 +184,13 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
   return o;
 }
 
-// The ANN-2D baseline on the event frame of the window (the warm-up is not shown to it).
+// The ANN-2D baseline on the event frame of the window and, with model.history, the frames just
+// before it (taken from the warm-up; otherwise the warm-up is not shown to it).
 // "rates" are the shares of non-zero ReLU outputs (the output layer: of positive logits).
 StepOutput ann_forward_loss(Ann2dNetwork& net, const BatchTensors& bt, const TrainConfig& c,
                             double ts) {
   const int64_t w0 = bt.warmup_steps, tw = bt.input.size(0) - w0;
-  const torch::Tensor feat = ann_feature_tensor(bt.input, w0, ts);
+  const torch::Tensor feat = ann_feature_tensor(bt.input, w0, ts, 1, net->history());
   const std::vector<torch::Tensor> layers = net->forward_all(feat);
   const torch::Tensor logits = align_to_input(layers.back(), feat.size(2), feat.size(3));
   const torch::Tensor had = (feat.narrow(1, 0, 2).sum(1) > 0).to(torch::kFloat);
@@ -408,7 +410,20 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   }
   const SpikeGradient grad = c.backward == "exact" ? SpikeGradient::Exact : SpikeGradient::Slayer;
   TrainNet net;
+  // Past frames come from the warm-up: it must hold them whole (the ANN's own, or a teacher's).
+  auto check_history = [&](int history, const std::string& who) {
+    if (int64_t(history) * c.sample.window_us > c.sample.warmup_us) {
+      char why[256];
+      std::snprintf(why, sizeof why,
+                    "%s sees %d past frames of the %g ms window: sample.warmup_ms must be at "
+                    "least %g",
+                    who.c_str(), history, double(c.sample.window_us) / 1000.0,
+                    double(history) * double(c.sample.window_us) / 1000.0);
+      fail("sample.warmup_ms", "", why);
+    }
+  };
   if (spec.type == ModelType::ANN2D) {
+    check_history(spec.ann_history, "the ANN-2D");
     net.ann = Ann2dNetwork(spec);
   } else {
     net.snn = SpikeMSNetwork(spec, grad);
@@ -458,6 +473,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
                     t.time_step_ms, ts, double(c.sample.window_us) / 1000.0);
       fail("loss.teacher", "", c.teacher + why);
     }
+    check_history(t.ann_history, "the teacher " + c.teacher);
     net.teacher_group = group;
     net.teacher = Ann2dNetwork(t);
     net.teacher->eval();

@@ -30,7 +30,8 @@ std::vector<torch::Tensor> ann_weight_directions(const ModelSpec& ann, const Mod
     // A teacher with the same skip feeds every input channel; one without it, the predecessor's.
     const bool same_skip = a.skip_from >= 0 && a.skip_from == s.skip_from;
     const int fed = same_skip ? s.in_channels : pred_in;
-    if (first ? (a.in_channels != 4 || s.in_channels != 2) : a.in_channels != fed)
+    if (first ? (a.in_channels != ann.ann_input_channels() || s.in_channels != 2)
+              : a.in_channels != fed)
       bad(k, "other input channels");
     if (last ? a.out_channels != 1 : a.out_channels != s.out_channels)
       bad(k, "other output channels");
@@ -48,6 +49,8 @@ std::vector<torch::Tensor> ann_weight_directions(const ModelSpec& ann, const Mod
     const int64_t in_dim = transposed ? 0 : 1;
     if (first) {
       TORCH_CHECK(!transposed, "the first layer is a convolution");
+      // The window's own frame (channels 0-3); a teacher's past frames have no counterpart
+      // in the SNN's input: its state carries the past instead.
       d.copy_(std::log(2.0) * w.narrow(1, 0, 2) + 0.5 * w.narrow(1, 2, 2));
     } else {
       // Input channels first: the predecessor's, then the skip's (zero unless the teacher

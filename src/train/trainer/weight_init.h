@@ -31,7 +31,8 @@ std::vector<double> init_weights_from_data(SpikeMSNetwork& net, const torch::Ten
 // init_weights_from_data. Mapping, per layer of `snn`:
 //   - the first layer: the ANN reads 4 features per pixel (ann_features.h), the SNN 2 polarities;
 //     one spike of polarity c in a one-step frame gives the features ln 2 (count) and 1/2 (mean
-//     time) in channels c and c + 2, so the SNN's weight is ln 2 W[:, c] + 1/2 W[:, c + 2];
+//     time) in channels c and c + 2, so the SNN's weight is ln 2 W[:, c] + 1/2 W[:, c + 2]
+//     (an ANN with past frames: those of the window's own frame; the SNN's state holds the past);
 //   - a decoder layer with a skip input: all the ANN's weights when the ANN has the same skip;
 //     from an ANN without it, its weights for the predecessor's channels and zero for the
 //     skip's (the network starts as the ANN, without skips, and learns to use them);

@@ -86,6 +86,38 @@ TEST(AnnScorer, ThreadsGiveTheSameScoresAsOne) {
   EXPECT_LT(a.scores[0].mean_iou(), 1.0);
 }
 
+// A model that reads only its past frame (history 1): on a 2 x 2 sensor one level sees every
+// pixel, and the logit is 10 x (the previous window's event count feature) - 1 everywhere, so
+// a window is called moving exactly where its events fell when the window before it had
+// events. Windows of 1 ms start at the first event (t = 100 us); the one at 2100 us is empty.
+TEST(AnnScorer, HistoryReadsTheWindowsBeforeNotAfter) {
+  EventStream e;
+  e.sensor = SensorSize{2, 2};
+  e.push_back(100, 0, 0, 1, 1);   // window 0: nothing before it
+  e.push_back(1100, 1, 1, 1, 1);  // window 1: window 0 had an event
+  e.push_back(3100, 0, 1, 0, 1);  // window 3: window 2 was empty
+  e.push_back(4100, 1, 0, 1, 1);  // window 4: window 3 had an event
+  e.push_back(5200, 1, 1, 0, 0);  // unlabelled, so the span covers window 4 whole
+  LabelledSequence s{"past", e};
+  auto model = [](int history, int channel) {
+    ModelSpec m = ann2d_architecture({1}, false, {}, history);
+    for (int k = 0; k < 9; ++k) {
+      m.layers[0].weight[size_t(channel * 9 + k)] = 1.f;  // count channel (OFF + ON)
+      m.layers[0].weight[size_t((channel + 1) * 9 + k)] = 1.f;
+      m.layers[1].weight[size_t(k)] = 10.f;
+    }
+    m.layers[1].bias[0] = -1.f;
+    return m;
+  };
+  const SequenceScore past = score_ann_sequence(model(1, 4), s, {1000});
+  ASSERT_EQ(past.scores[0].windows(), 4u);
+  EXPECT_NEAR(past.scores[0].mean_iou(), 0.5, 1e-12);  // windows 1 and 4: 1; 0 and 3: 0
+  EXPECT_NEAR(past.scores[0].detection_rate(), 0.5, 1e-12);
+  // The same reading the window's own frame (channels 0, 1): every window right.
+  const SequenceScore own = score_ann_sequence(model(1, 0), s, {1000});
+  EXPECT_NEAR(own.scores[0].mean_iou(), 1.0, 1e-12);
+}
+
 TEST(AnnScorer, BadInput) {
   LabelledSequence s{"hand", hand_events()};
   EXPECT_THROW(score_ann_sequence(constant_logit(1.f), s, {1500}), Error);  // not whole steps

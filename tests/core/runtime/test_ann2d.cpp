@@ -124,5 +124,30 @@ TEST(Ann2dModel, FileRoundTripAndValidation) {
   EXPECT_THROW(Ann2dForward(m).forward(std::vector<float>(10), 4, 4), Error);
 }
 
+TEST(Ann2dModel, HistoryRoundTripsAndSetsTheInputChannels) {
+  ModelSpec m = ann2d_architecture({16, 32}, false, {}, 3);
+  EXPECT_EQ(m.ann_history, 3);
+  EXPECT_EQ(m.layers[0].in_channels, 16);  // 4 features x (the window + 3 past frames)
+  m.layers[0].weight[5] = 0.25f;
+  const std::string p =
+      (std::filesystem::temp_directory_path() / "spikems_ann2d_history.safetensors").string();
+  save_model(p, m);
+  const ModelSpec r = load_model(p);
+  std::filesystem::remove(p);
+  EXPECT_EQ(r.ann_history, 3);
+  EXPECT_EQ(r.layers[0].weight, m.layers[0].weight);
+  // Inputs of the wrong width: 4 channels for a model that reads 16.
+  EXPECT_THROW(Ann2dForward(r).forward(std::vector<float>(4 * 8 * 8), 8, 8), Error);
+  EXPECT_EQ(Ann2dForward(r).forward(std::vector<float>(16 * 8 * 8), 8, 8).size(), 64u);
+  ModelSpec bad = m;  // history and first-layer channels disagree
+  bad.ann_history = 2;
+  EXPECT_THROW(bad.validate("t"), Error);
+  ModelSpec snn = spikems_architecture(true);  // a spiking network keeps its own past
+  snn.ann_history = 1;
+  EXPECT_THROW(snn.validate("t"), Error);
+  EXPECT_THROW(ann2d_architecture({16}, false, {}, kMaxAnnHistory + 1), Error);
+  EXPECT_THROW(ann2d_architecture({16}, false, {}, -1), Error);
+}
+
 }  // namespace
 }  // namespace spikems
