@@ -15,8 +15,8 @@ namespace spikems::train {
 namespace {
 
 // An ANN-2D of the given widths with random weights and biases.
-ModelSpec random_ann(const std::vector<int>& widths, bool skips = false) {
-  ModelSpec a = ann2d_architecture(widths, skips);
+ModelSpec random_ann(const std::vector<int>& widths, bool skips = false, int history = 0) {
+  ModelSpec a = ann2d_architecture(widths, skips, {}, history);
   for (auto& l : a.layers) {
     const torch::Tensor w = torch::randn({l.weight_count()});
     l.weight.assign(w.data_ptr<float>(), w.data_ptr<float>() + w.numel());
@@ -30,6 +30,26 @@ torch::Tensor weights_of(const LayerSpec& l) {
   const bool t = l.kind == LayerKind::ConvTranspose;
   return torch::tensor(l.weight).reshape(
       {t ? l.in_channels : l.out_channels, t ? l.out_channels : l.in_channels, l.kernel, l.kernel});
+}
+
+// A teacher with past frames starts the student from its weights for the window's own frame
+// (input channels 0-3); the rest of the hourglass maps as without history.
+TEST(AnnWeightTransfer, ATeacherWithHistoryGivesItsOwnFramesWeights) {
+  torch::manual_seed(23);
+  const ModelSpec hist = random_ann({4, 8}, false, 2);
+  ASSERT_EQ(hist.layers[0].in_channels, 12);
+  ModelSpec plain = ann2d_architecture({4, 8});
+  plain.layers = hist.layers;
+  plain.ann_history = 0;
+  plain.layers[0].in_channels = 4;
+  plain.layers[0].weight.clear();  // [out, 12, 3, 3] -> [out, 4, 3, 3]: the first 4 inputs
+  const torch::Tensor w = weights_of(hist.layers[0]).narrow(1, 0, 4).contiguous();
+  plain.layers[0].weight.assign(w.data_ptr<float>(), w.data_ptr<float>() + w.numel());
+  const ModelSpec snn = spikems_architecture(true, Discretisation::IIR, {4, 8});
+  const auto a = ann_weight_directions(hist, snn, "test");
+  const auto b = ann_weight_directions(plain, snn, "test");
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t k = 0; k < a.size(); ++k) EXPECT_TRUE(torch::equal(a[k], b[k])) << "layer " << k;
 }
 
 TEST(AnnWeightTransfer, MapsEachLayerAsDocumented) {
