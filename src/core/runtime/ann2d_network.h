@@ -17,9 +17,10 @@ class Ann2dForward {
   // Throws Error unless `model` is a valid ANN-2D model.
   explicit Ann2dForward(ModelSpec model);
 
-  // features [ann_input_channels(), H, W] (the window's frame, then its past frames, newest
-  // first: ann_history_features) -> logits [H, W] of "moving", the output aligned to the input by
-  // its top-left corner (cropped where larger, zero logits where smaller), as the SNN's output.
+  // features [ann_input_channels(), H, W] (ann_features of the window's frame, then of each
+  // past frame, newest first: ModelSpec::ann_history) -> logits [H, W] of "moving", the output
+  // aligned to the input by its top-left corner (cropped where larger, zero logits where
+  // smaller), as the SNN's output.
   std::vector<float> forward(const std::vector<float>& features, int H, int W) const;
 
   const ModelSpec& model() const { return model_; }
