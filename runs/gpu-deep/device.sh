@@ -13,7 +13,10 @@
 # if it is not made by then, default 290), CUDA_TESTS=1 (also build test_train and run the
 # NeuronCuda tests beside the training: the fused kernels and the data-driven initialisation on
 # the GPU against the CPU; log in $OUT/cuda-tests.log), CONFIG (default configs/train/deep.toml),
-# STEPS (--steps, the learning-rate schedule's length; default 3000).
+# STEPS (--steps, the learning-rate schedule's length; default 3000), VAL_EVERY (default 250),
+# KEEP=1 (run.keep_val_models: every validation's model comes back, for choosing one here by
+# held-out rooms and the real poster). The logs come back in $OUT/logs.tar.gz; a run larger than
+# 15 MB packed comes back in parts (NAME.partK.tar.gz: unpack all of them into one folder).
 # For a dry run on a CPU machine: SKIP_BUILD=<a spikems> DEVICE=cpu (EXTRA: more train arguments).
 set -u
 # Checked before any work: a malformed run would only fail after minutes of device time.
@@ -106,7 +109,8 @@ LIM=$((DEADLINE - (SECONDS - T0) - 25))
 [ "$LIM" -lt 30 ] && LIM=30   # late: still a short run rather than none
 log "time limit ${LIM} s per run"
 C=(--device "${DEVICE:-cuda}" --time-limit "${LIM}s" -q --steps "${STEPS:-3000}" --set optim.batch=${BATCH:-8} --set run.loader_threads=4
-   --set run.val_every=250 --set "$TRAIN")
+   --set run.val_every=${VAL_EVERY:-250} --set "$TRAIN")
+[ -n "${KEEP:-}" ] && C+=(--set run.keep_val_models=true)
 probe() {  # name extra-args...
   local name=$1; shift
   mkdir -p "runs/$name"
@@ -128,11 +132,37 @@ for spec in "$@"; do
 done
 wait "${PIDS[@]}"
 pkill -f "nvidia-smi" 2>/dev/null
-log "training done"
+log "training done; packing"
 python3 - "$OUT" "${NAMES[@]}" <<'PY'
-import sys, tarfile
+import os, sys, tarfile
+out = sys.argv[1]
+LIMIT = 15 << 20  # $OUT returns files of at most 16 MiB
+def pack(name, files):
+    with tarfile.open(f'{out}/{name}.tar.gz', 'w:gz') as t:
+        for f in files:
+            t.add(f, arcname=os.path.relpath(f, 'runs'))
 for n in sys.argv[2:]:
-    with tarfile.open(f'{sys.argv[1]}/{n}.tar.gz', 'w:gz') as t:
-        t.add(f'runs/{n}', arcname=n)
+    files = sorted(os.path.join(r, f) for r, _, fs in os.walk(f'runs/{n}') for f in fs)
+    files = [f for f in files if not f.endswith('checkpoint.pt')]  # optimizer state: not needed here
+    parts, cur, size = [], [], 0
+    for f in files:  # model files barely compress: split by raw size
+        s = os.path.getsize(f)
+        if cur and size + s > LIMIT:
+            parts.append(cur); cur, size = [], 0
+        cur.append(f); size += s
+    parts.append(cur)
+    if len(parts) == 1:
+        pack(n, parts[0])
+    else:
+        for k, p in enumerate(parts):
+            pack(f'{n}.part{k}', p)
+logs = [f for f in ('main.log', 'build.log', 'sim.log', 'smi.csv', 'cuda-tests.log')
+        if os.path.exists(f'{out}/{f}')]
+with tarfile.open(f'{out}/logs.tar.gz', 'w:gz') as t:
+    for f in logs:
+        t.add(f'{out}/{f}', arcname=f)
+for f in logs:  # only 8 files come back
+    os.remove(f'{out}/{f}')
 PY
-log "packed"
+echo "[$((SECONDS - T0)) s] packed"
+ls -la "$OUT"

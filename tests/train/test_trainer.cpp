@@ -683,6 +683,33 @@ TEST(Trainer, Ann2dWithSkipsTrainsAndEvalAgrees) {
   EXPECT_TRUE(train_ann_and_check_eval(ov, scratch + "/ann-skips", data, 20).has_skips());
 }
 
+// run.keep_val_models: each validation leaves its model as val-step<N>.safetensors, and that
+// file is the model the validation scored (`spikems eval` gives the val line's number).
+TEST(Trainer, KeepValModelsLeavesEachValidationsModel) {
+  const std::string scratch = scratch_dir();
+  const std::string data = scratch + "/data";
+  const std::string dir = scratch + "/ann-keep";
+  auto ov = ann_overrides(data, 20);
+  ov.push_back("sample.warmup_ms=0");
+  ov.push_back("run.keep_val_models=true");
+  ov.push_back("run.val_every=10");
+  ASSERT_EQ(train_quietly(ov, dir).steps, 20);
+  const auto val = read_log(dir, "val");
+  ASSERT_EQ(val.size(), 3u);  // steps 0 (untrained), 10, 20
+  EXPECT_FALSE(std::filesystem::exists(dir + "/val-step0.safetensors"));
+  for (size_t i = 1; i < val.size(); ++i) {
+    const int64_t step = val[i]["step"].get<int64_t>();
+    const std::string f = dir + "/val-step" + std::to_string(step) + ".safetensors";
+    ASSERT_TRUE(std::filesystem::exists(f)) << f;
+    EXPECT_EQ(load_model(f).training.at("steps").get<int64_t>(), step);
+    const WindowSummary w = whole_sensor_eval(f, data + "/seq_0000.h5");
+    EXPECT_NEAR(val[i]["full_iou"].get<double>(), w.iou_mean, 1e-9) << f;
+  }
+  // Two snapshots, not one file twice: training moved the weights between them.
+  EXPECT_NE(load_model(dir + "/val-step10.safetensors").layers[0].weight,
+            load_model(dir + "/val-step20.safetensors").layers[0].weight);
+}
+
 // model.history on an ANN-2D: the past frames come from the warm-up, the file records them,
 // `spikems eval` scores it as the trainer's whole-sensor validation does; a warm-up too short
 // to hold them, or a history on a spiking network, is refused naming the key.

@@ -317,6 +317,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("run", "val_full_s", c.val_full_s);
   b.bind("run", "val_full_window_ms", c.val_full_window_ms);
   b.bind("run", "gate_events", c.gate_events);
+  b.bind("run", "keep_val_models", c.keep_val_models);
   b.check_unknown();
 
   one_of(b, "model", "type", c.type, {"snn", "ann2d"});

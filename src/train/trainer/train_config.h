@@ -133,6 +133,9 @@ struct TrainConfig {
   double val_full_s = 0, val_full_window_ms = 20;
   // Validation scores P ∩ E (predictions only at pixels with input events; `eval --gate-events`).
   bool gate_events = false;
+  // Keep the model of every validation as val-step<N>.safetensors, so that a run can be judged
+  // afterwards on data the trainer does not see (a held-out set, a real recording).
+  bool keep_val_models = false;
 
   nlohmann::json source;  // the resolved configuration (every key), as JSON
 };

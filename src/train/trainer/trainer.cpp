@@ -830,6 +830,8 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
           st.best_step = st.step;
           save_model_file((dir / "best.safetensors").string());
         }
+        if (c.keep_val_models)
+          save_model_file((dir / ("val-step" + std::to_string(st.step) + ".safetensors")).string());
         curves.write((dir / "curves.svg").string());
         if (ro.progress) {
           const std::string whole =

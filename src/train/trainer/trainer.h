@@ -7,6 +7,7 @@
 //   checkpoint.pt      latest checkpoint (checkpoint.h), every `checkpoint_every` steps
 //   model.safetensors  the latest model, in the model format every command reads
 //   best.safetensors   the model of the best validation IoU so far
+//   val-step<N>.safetensors  the model at each validation, with run.keep_val_models
 #pragma once
 
 #include <string>
