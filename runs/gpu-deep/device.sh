@@ -144,6 +144,8 @@ def pack(name, files):
 for n in sys.argv[2:]:
     files = sorted(os.path.join(r, f) for r, _, fs in os.walk(f'runs/{n}') for f in fs)
     files = [f for f in files if not f.endswith('checkpoint.pt')]  # optimizer state: not needed here
+    if any('/val-step' in f for f in files):  # best.safetensors is one of them
+        files = [f for f in files if not f.endswith('/best.safetensors')]
     parts, cur, size = [], [], 0
     for f in files:  # model files barely compress: split by raw size
         s = os.path.getsize(f)
