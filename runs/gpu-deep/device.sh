@@ -13,10 +13,12 @@
 # if it is not made by then, default 290), CUDA_TESTS=1 (also build test_train and run the
 # NeuronCuda tests beside the training: the fused kernels and the data-driven initialisation on
 # the GPU against the CPU; log in $OUT/cuda-tests.log), CONFIG (default configs/train/deep.toml),
+# SEED_A / SEED_B (the training rooms' seeds, default 41 / 43), ROOM_S (their length, 1.5s),
 # STEPS (--steps, the learning-rate schedule's length; default 3000), VAL_EVERY (default 250),
-# KEEP=1 (run.keep_val_models: every validation's model comes back, for choosing one here by
-# held-out rooms and the real poster). The logs come back in $OUT/logs.tar.gz; a run larger than
-# 15 MB packed comes back in parts (NAME.partK.tar.gz: unpack all of them into one folder).
+# KEEP=1 (run.keep_val_models: every validation's model comes back, to be chosen here by
+# held-out rooms and the real poster).
+# The logs come back in $OUT/logs.tar.gz; a run larger than 15 MB packed comes back in parts
+# (NAME.partK.tar.gz: unpack all of them into one folder).
 # For a dry run on a CPU machine: SKIP_BUILD=<a spikems> DEVICE=cpu (EXTRA: more train arguments).
 set -u
 # Checked before any work: a malformed run would only fail after minutes of device time.
@@ -31,7 +33,12 @@ T0=$SECONDS
 OUT=${OUT:-/tmp/gpu-out}
 mkdir -p "$OUT"
 DEADLINE=${DEADLINE:-535}   # seconds after start by which training has stopped
-ROOMS=${ROOMS:-32}          # rooms per training chunk (two chunks, seeds 41 and 43)
+ROOMS=${ROOMS:-32}          # rooms per training chunk (two chunks, seeds SEED_A and SEED_B)
+# 41 and 43 by default (earlier calls); seed 41 makes the first 32 rooms of data/mod3-train (the
+# simulator seeds each room by the global seed and its index): new seeds give new rooms.
+SEED_A=${SEED_A:-41}
+SEED_B=${SEED_B:-43}
+ROOM_S=${ROOM_S:-1.5s}     # each training room's length: shorter rooms, more of them per minute
 log() { echo "[$((SECONDS - T0)) s] $*" | tee -a "$OUT/main.log"; }
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader | tee -a "$OUT/main.log"
 nproc | tee -a "$OUT/main.log"
@@ -69,7 +76,7 @@ sim() {  # name n duration seed
     --mask-period 10ms --no-progress --out "data/$1.partial" >>"$OUT/sim.log" 2>&1 &&
     mv "data/$1.partial" "data/$1" && log "made data/$1"
 }
-(sim mod2-val 8 1s 3001 && sim gpu-train-a "$ROOMS" 1.5s 41 && sim gpu-train-b "$ROOMS" 1.5s 43) &
+(sim mod2-val 8 1s 3001 && sim gpu-train-a "$ROOMS" "$ROOM_S" "$SEED_A" && sim gpu-train-b "$ROOMS" "$ROOM_S" "$SEED_B") &
 SPID=$!
 
 wait $BPID
