@@ -296,7 +296,12 @@ void run(const Args& a) {
     chunk.clear();
     // Small chunks keep Ctrl-C responsive even when the network is slow.
     bool more = from_stdin ? stdin_src->read(chunk, 4096) : reader->read(chunk, 4096) > 0;
-    if (!more) break;
+    if (!more) {
+      // Ctrl-C while the read waited (the handler restarts it) and the stream then ended: still
+      // an interruption, said as such.
+      stopped = interrupted();
+      break;
+    }
     if (!seg) {
       if (!sensor.known()) sensor = chunk.sensor;
       init(sensor);

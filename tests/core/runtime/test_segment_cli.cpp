@@ -265,10 +265,15 @@ TEST(SegmentCli, InterruptCommitsCompleteOutput) {
   // The segment process writes its own pid, so the signal reaches it (not a subshell); the
   // script waits for that file, then until the process catches SIGINT (/proc's SigCgt, bit 2):
   // a background job starts with SIGINT ignored, so a signal sent before spikems installs its
-  // handler (~0.5 s in on a loaded machine) would be lost.
+  // handler (~0.5 s in on a loaded machine) would be lost. The input ends only after the signal
+  // was sent: on a machine so loaded that spikems starts after the third event, it has read
+  // everything when the signal comes, and the stream's end must not beat it.
   std::string script =
-      "( printf '1000 3 4 0\\n2000 5 5 1\\n'; sleep 2; printf '3000 6 6 0\\n'; "
-      "sleep 1 ) 2>/dev/null | sh -c 'echo $$ > " +
+      "( printf '1000 3 4 0\\n2000 5 5 1\\n'; sleep 2; printf '3000 6 6 0\\n'; i=0; "
+      "while [ ! -e " +
+      d +
+      "/killed ] && [ $i -lt 300 ]; do sleep 0.1; i=$((i+1)); done; "
+      "sleep 0.3 ) 2>/dev/null | sh -c 'echo $$ > " +
       d + "/pid; exec " + spikems_binary() + " segment --model " + model +
       " --input - --width 16 --height 12 --out " + d + "/live.txt' & P=$!; i=0; while [ ! -s " + d +
       "/pid ] && [ $i -lt 100 ]; do sleep 0.1; " + "i=$((i+1)); done; Q=$(cat " + d +
@@ -276,7 +281,8 @@ TEST(SegmentCli, InterruptCommitsCompleteOutput) {
       "/proc/$Q/status); "
       "[ \"$(cat /proc/$Q/comm)\" = spikems ] && [ -n \"$m\" ] && [ $((0x$m & 2)) -ne 0 ] && "
       "break; sleep 0.05; i=$((i+1)); done; "
-      "sleep 0.2; kill -INT $Q; wait $P; echo rc=$?";
+      "sleep 0.2; kill -INT $Q; touch " +
+      d + "/killed; wait $P; echo rc=$?";
   std::ofstream(d + "/run.sh") << script << "\n";
   run_command("sh " + d + "/run.sh", &out);
   EXPECT_NE(out.find("rc=0"), std::string::npos) << out;
