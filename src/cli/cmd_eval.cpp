@@ -1,5 +1,6 @@
 // `spikems eval`: a model's IoU and detection rate on labelled datasets, per window length, as
 // the paper reports them (docs/evaluation.md). Parses the options and calls core/eval.
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
@@ -18,12 +19,41 @@ namespace {
 using namespace spikems;
 
 struct Args {
-  std::string windows = "20,100", split = "test", out, kalman, boxes, thresholds, gates;
+  std::string windows = "20,100", split = "test", out, kalman, boxes, thresholds, gates,
+              share_bands = "2,10";
   std::vector<std::string> models, data, baselines;
   int threads = 1;
   bool iir = false, quiet = false, gate_events = false, static_scene = false;
   double max_seconds = 0;
 };
+
+// "2,10" -> {2, 10}; "none" -> {} (no band rows). Errors name the option and the item.
+std::vector<double> parse_share_bands(const std::string& text) {
+  if (text == "none") return {};
+  std::vector<double> edges;
+  size_t start = 0;
+  while (start <= text.size()) {
+    const size_t comma = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, comma - start);
+    size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (item.empty() || used != item.size())
+      fail("--share-bands", item,
+           "not a number: give increasing percentages between 0 and 100, e.g. 2,10 (or none)");
+    if (!(v > 0 && v < 100))
+      fail("--share-bands", item, "each edge must lie between 0 and 100 percent (exclusive)");
+    if (!edges.empty() && !(v > edges.back()))
+      fail("--share-bands", text, "the edges must increase, e.g. 2,10");
+    edges.push_back(v);
+    start = comma + 1;
+  }
+  return edges;
+}
 
 void run(const Args& a) {
   install_interrupt_flag();
@@ -45,6 +75,7 @@ void run(const Args& a) {
   o.gate_events = a.gate_events;
   o.boxes = a.boxes;
   o.static_scene = a.static_scene;
+  o.share_bands_pct = parse_share_bands(a.share_bands);
   o.max_seconds = a.max_seconds;
   o.progress = !a.quiet;
   o.command_line = cli::invoked_command();
@@ -138,6 +169,11 @@ void add(CLI::App& app) {
   cmd->add_flag("--gate-events", a.gate_events,
                 "Count predictions only at pixels with input events in the window (P ∩ E, as "
                 "per-event labels do; ANN-2D models are gated by construction)");
+  cmd->add_option("--share-bands", a.share_bands,
+                  "Also report IoU and detection per band of windows split by the share of "
+                  "their input events that are truly moving (percent edges; small objects or "
+                  "dense texture give low shares); none = no bands")
+      ->capture_default_str();
   cmd->add_flag("--iir", a.iir,
                 "Run FIR layers with the exact recursions of the same neurons (faster; spikes "
                 "close to but not identical with the FIR model)");

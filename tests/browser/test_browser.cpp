@@ -167,9 +167,10 @@ TEST_F(Browser, EvalReportRenders) {
       << out;
   const std::string page = dir_ + "/eval/report.html";
   const Rendered r = render(page, dir_ + "/chromium");
-  // Two plots and 3 windows for each of the 2 sequences.
-  expect_rendered(r, page, 2 + 2 * 3);
-  EXPECT_EQ(count(r.dom, "<table"), 2u);  // the summary and per-sequence tables
+  // Three plots (IoU by window, by size band, per sequence) and 3 windows for each of the 2
+  // sequences.
+  expect_rendered(r, page, 3 + 2 * 3);
+  EXPECT_EQ(count(r.dom, "<table"), 3u);  // the summary, size-band and per-sequence tables
   EXPECT_NE(r.dom.find("<th>IoU % (mean ± std)</th>"), std::string::npos);
   EXPECT_NE(r.dom.find("<td>pass_all.safetensors</td>"), std::string::npos);
   EXPECT_NE(r.dom.find("<td>baseline:all-events</td>"), std::string::npos);
@@ -190,8 +191,8 @@ TEST_F(Browser, DemoPageAndItsReportRender) {
   EXPECT_NE(index.dom.find("href=\"eval/report.html\""), std::string::npos)
       << "index.html does not link the evaluation report";
   const Rendered report = render(demo + "/eval/report.html", dir_ + "/chromium_report");
-  expect_rendered(report, demo + "/eval/report.html", 2);
-  EXPECT_EQ(count(report.dom, "<table"), 2u);
+  expect_rendered(report, demo + "/eval/report.html", 3);
+  EXPECT_EQ(count(report.dom, "<table"), 3u);  // summary, size bands, per sequence
 }
 
 }  // namespace

@@ -283,6 +283,62 @@ TEST_F(EvalCli, EventPrecisionRecallAndKalmanRows) {
   EXPECT_NE(out.find("--kalman"), std::string::npos) << out;
 }
 
+// --share-bands: every window row also comes split by the share of its events that move; the
+// bands partition the row's scored windows and their IoU averages back to the row's.
+TEST_F(EvalCli, ShareBandsPartitionTheScoredWindows) {
+  const std::string o = dir_ + "/out_bands";
+  std::string out;
+  ASSERT_EQ(run_command(eval("--data " + data() +
+                             " --split all --windows 10,50 --share-bands "
+                             "5,20 --out " +
+                             o),
+                        &out),
+            0)
+      << out;
+  const auto j = nlohmann::json::parse(slurp(o + "/results.json"));
+  EXPECT_EQ(j["share_bands_pct"], nlohmann::json::array({5.0, 20.0}));
+  const auto& d = j["models"][0]["datasets"][0];
+  std::vector<nlohmann::json> rows(d["windows"].begin(), d["windows"].end());
+  for (const auto& s : d["per_sequence"])
+    for (const auto& w : s["windows"]) rows.push_back(w);
+  size_t with_windows = 0;
+  for (const auto& w : rows) {
+    ASSERT_EQ(w["share_bands"].size(), 3u) << w.dump();
+    EXPECT_EQ(w["share_bands"][0]["share_max_pct"], 5.0);
+    EXPECT_EQ(w["share_bands"][2]["share_min_pct"], 20.0);
+    size_t n = 0;
+    double sum = 0;
+    for (const auto& b : w["share_bands"]) {
+      const size_t bn = b["windows"].get<size_t>();
+      n += bn;
+      if (bn > 0)
+        sum += b["iou_mean"].get<double>() * double(bn);
+      else
+        EXPECT_TRUE(b["iou_mean"].is_null());
+    }
+    EXPECT_EQ(n, w["windows"].get<size_t>());
+    if (n == 0) continue;
+    ++with_windows;
+    EXPECT_NEAR(sum / double(n), w["iou_mean"].get<double>(), 1e-9);
+  }
+  EXPECT_GT(with_windows, 0u);
+  EXPECT_NE(slurp(o + "/results.md").find("| 5-20 %: IoU % (detection %, windows) |"),
+            std::string::npos);
+  EXPECT_NE(slurp(o + "/report.html").find("5-20 %"), std::string::npos);
+  EXPECT_NE(slurp(o + "/report.html").find("plots/iou_by_share_1.svg"), std::string::npos);
+  EXPECT_TRUE(fs::exists(o + "/plots/iou_by_share_1.svg"));
+  // none: no bands; bad edges stop before any work with the option named.
+  ASSERT_EQ(run_command(eval("--data " + data() + " --share-bands none --out " + o + "n"), &out), 0)
+      << out;
+  const auto n = nlohmann::json::parse(slurp(o + "n/results.json"));
+  EXPECT_TRUE(n["models"][0]["datasets"][0]["windows"][0]["share_bands"].is_null());
+  EXPECT_EQ(slurp(o + "n/results.md").find("By the moving share"), std::string::npos);
+  for (const char* bad : {"10,2", "0,5", "5,100", "x", "5,,10", "nan"}) {
+    EXPECT_EQ(run_command(eval("--data " + data() + " --share-bands " + bad), &out), 1) << bad;
+    EXPECT_NE(out.find("--share-bands"), std::string::npos) << bad << ": " << out;
+  }
+}
+
 // --static-scene: an unlabelled recording of a static scene; every event is background and the
 // score is the share of events each model labels moving.
 TEST_F(EvalCli, StaticSceneScoresTheShareOfEventsCalledMoving) {
@@ -319,6 +375,7 @@ TEST_F(EvalCli, StaticSceneScoresTheShareOfEventsCalledMoving) {
     EXPECT_EQ(c["fn"], 0);
     const double fp = c["fp"].get<double>(), tn = c["tn"].get<double>();
     EXPECT_EQ(fp + tn, 4000.0);
+    EXPECT_TRUE(w["share_bands"].is_null());  // no window scored, so no shares
     share[i] = w["moving_share"].get<double>();
     EXPECT_DOUBLE_EQ(share[i], 100.0 * fp / (fp + tn));
   }

@@ -665,7 +665,9 @@ ModelSpec train_ann_and_check_eval(const std::vector<std::string>& ov, const std
   const WindowSummary w = whole_sensor_eval(dir + "/model.safetensors", data + "/seq_0000.h5");
   EXPECT_GT(w.windows, 0u);
   EXPECT_GT(w.iou_mean, 0.0);
-  if (!val.empty()) EXPECT_NEAR(val.back()["full_iou"].get<double>(), w.iou_mean, 1e-9);
+  if (!val.empty()) {
+    EXPECT_NEAR(val.back()["full_iou"].get<double>(), w.iou_mean, 1e-9);
+  }
   const ModelSpec m = load_model(dir + "/model.safetensors");
   EXPECT_EQ(m.type, ModelType::ANN2D);
   return m;

@@ -61,6 +61,7 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   if (paths.empty() && opt.baselines.empty())
     fail("spikems eval", "", "no model given (--model FILE)");
   if (opt.data.empty()) fail("spikems eval", "", "no data given (--data PATH)");
+  check_band_edges(opt.share_bands_pct);
   const std::vector<double> scales =
       opt.output_thresholds.empty() ? std::vector<double>{1.0} : opt.output_thresholds;
   std::vector<ModelSpec> models;
@@ -150,6 +151,7 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   r.boxes = opt.boxes;
   r.gate_events = opt.gate_events;
   r.static_scene = opt.static_scene;
+  r.share_bands_pct = opt.share_bands_pct;
   r.label_tolerance_steps = so.label_tolerance_steps;
   so.max_us = opt.max_seconds > 0 ? int64_t(opt.max_seconds * 1e6 + 0.5) : 0;
   size_t done = 0;
@@ -209,7 +211,8 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
     }
     if (!scores[0].empty() || !interrupted()) {
       for (size_t i = 0; i < runs; ++i)
-        res[i].datasets.push_back(dataset_result(s.src.path, s.folder ? opt.split : "", scores[i]));
+        res[i].datasets.push_back(
+            dataset_result(s.src.path, s.folder ? opt.split : "", scores[i], opt.share_bands_pct));
       if (examples) examples->datasets.push_back(std::move(shown));
     }
     if (interrupted()) {

@@ -40,6 +40,9 @@ struct EvalOptions {
   // Every event of the data is background (a static scene filmed by a moving camera): labels
   // are not needed (any are ignored) and the score is the share of events labelled moving.
   bool static_scene = false;
+  // Edges (percent, increasing, in (0, 100)) splitting the scored windows by the share of
+  // their input events that are truly moving: a row of results per band (results.h); {} = none.
+  std::vector<double> share_bands_pct = kDefaultShareBandsPct;
   double max_seconds = 0;    // > 0: only the first max_seconds of each sequence
   bool progress = false;     // progress bar on stderr
   std::string command_line;  // recorded in the results

@@ -30,13 +30,16 @@ bool is_detection(const MaskCounts& c) {
   return 2 * c.intersection > c.truth && c.intersection > false_pos;
 }
 
-void WindowScores::add(const MaskCounts& c) {
+void WindowScores::add(const MaskCounts& c, double moving_share) {
   if (c.truth == 0) {
     ++skipped_;
     return;
   }
   ious_.push_back(iou(c));
-  detections_ += is_detection(c);
+  shares_.push_back(moving_share);
+  const bool d = is_detection(c);
+  detected_.push_back(d);
+  detections_ += d;
 }
 
 double WindowScores::mean_iou() const {

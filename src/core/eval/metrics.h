@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace spikems {
@@ -29,16 +30,24 @@ bool is_detection(const MaskCounts& c);
 class WindowScores {
  public:
   // Windows with an empty G are skipped (no moving object to score), as in the paper.
-  void add(const MaskCounts& c);
+  // moving_share: the fraction (0-1) of the window's input events that are truly moving, the
+  // key of the size bands (results.h); NaN where unknown (boxes as truth).
+  void add(const MaskCounts& c, double moving_share = kUnknownShare);
   size_t windows() const { return ious_.size(); }
   size_t skipped() const { return skipped_; }
   double mean_iou() const;
   double std_iou() const;
   double detection_rate() const;  // fraction of scored windows that are detections
   const std::vector<double>& ious() const { return ious_; }
+  // Per scored window, aligned with ious(): its moving share (NaN: unknown) and detection.
+  const std::vector<double>& moving_shares() const { return shares_; }
+  const std::vector<uint8_t>& detections() const { return detected_; }
+
+  static constexpr double kUnknownShare = std::numeric_limits<double>::quiet_NaN();
 
  private:
-  std::vector<double> ious_;
+  std::vector<double> ious_, shares_;
+  std::vector<uint8_t> detected_;
   size_t detections_ = 0, skipped_ = 0;
 };
 

@@ -145,6 +145,11 @@ std::string write_report(const EvalResults& r, const EvalExamples& ex, const std
   page.heading("Scores");
   const TextTable summary = summary_table(r);
   page.table(summary.header, summary.rows, "per dataset and window length");
+  const TextTable bands = band_table(r);
+  if (!bands.rows.empty())
+    page.table(bands.header, bands.rows,
+               "by the share of a window's input events that are truly moving (small objects "
+               "or dense texture: a low share)");
 
   // Plots: one per dataset (the runs share the datasets, in the same order).
   const size_t datasets = r.models.empty() ? 0 : r.models[0].datasets.size();
@@ -167,6 +172,33 @@ std::string write_report(const EvalResults& r, const EvalExamples& ex, const std
     size_t wi = 0;
     while (wi < r.windows_us.size() && r.windows_us[wi] != shown_us) ++wi;
     if (wi == r.windows_us.size()) continue;
+
+    // Size bands at the same length: a group of bars per band, one bar per model.
+    const WindowSummary& first = r.models[0].datasets[d].windows.at(wi);
+    if (!first.bands.empty()) {
+      std::vector<std::string> bands;
+      for (const BandSummary& b : first.bands) bands.push_back(band_name(b));
+      std::vector<PlotSeries> per_model;
+      for (const auto& m : r.models) {
+        if (d >= m.datasets.size() || m.datasets[d].windows.at(wi).bands.size() != bands.size())
+          continue;
+        PlotSeries b;
+        b.label = model_label(r, m);
+        for (const BandSummary& band : m.datasets[d].windows.at(wi).bands)
+          b.y.push_back(band.windows > 0 ? band.iou_mean : 0.0);
+        per_model.push_back(std::move(b));
+      }
+      PlotOptions so;
+      so.title = "IoU by the moving share of the window's events, " + ms(shown_us) +
+                 " ms windows: " + file_name(data);
+      so.x_label = "share of the window's events that move";
+      so.y_label = "IoU % (mean)";
+      so.y_min = 0;
+      const std::string band_file = "plots/iou_by_share_" + std::to_string(d + 1) + ".svg";
+      write_svg((root / band_file).string(), svg_bar_plot(bands, per_model, so));
+      page.image(band_file, "IoU per size band (" + ms(shown_us) + " ms windows), " + data);
+    }
+
     std::vector<std::string> names;
     for (const auto& s : r.models[0].datasets[d].sequences) names.push_back(file_name(s.name));
     if (names.empty()) continue;

@@ -13,7 +13,8 @@ namespace spikems {
 namespace fs = std::filesystem;
 
 WindowSummary summarize(int64_t window_us, const std::vector<const WindowScores*>& parts,
-                        const std::vector<const EventCounts*>& events) {
+                        const std::vector<const EventCounts*>& events,
+                        const std::vector<double>& band_edges_pct) {
   WindowSummary s;
   s.window_us = window_us;
   s.sequences = parts.size();
@@ -35,11 +36,65 @@ WindowSummary summarize(int64_t window_us, const std::vector<const WindowScores*
   s.iou_mean = 100 * mean;
   s.iou_std = 100 * std::sqrt(var / n);
   s.detection_rate = 100 * detections / n;
+
+  bool known = false;
+  for (const WindowScores* p : parts)
+    for (double v : p->moving_shares()) known = known || !std::isnan(v);
+  if (!known || band_edges_pct.empty()) return s;
+  check_band_edges(band_edges_pct);
+  for (size_t b = 0; b <= band_edges_pct.size(); ++b) {
+    BandSummary band;
+    band.lo_pct = b == 0 ? 0 : band_edges_pct[b - 1];
+    band.hi_pct = b == band_edges_pct.size() ? 100 : band_edges_pct[b];
+    const bool last = b == band_edges_pct.size();
+    auto in_band = [&](double share) {
+      const double pct = 100 * share;
+      return !std::isnan(share) && pct >= band.lo_pct && (last || pct < band.hi_pct);
+    };
+    double bsum = 0, bdet = 0;
+    for (const WindowScores* p : parts)
+      for (size_t w = 0; w < p->windows(); ++w)
+        if (in_band(p->moving_shares()[w])) {
+          ++band.windows;
+          bsum += p->ious()[w];
+          bdet += p->detections()[w];
+        }
+    if (band.windows > 0) {
+      const double bn = double(band.windows), bmean = bsum / bn;
+      double bvar = 0;
+      for (const WindowScores* p : parts)
+        for (size_t w = 0; w < p->windows(); ++w)
+          if (in_band(p->moving_shares()[w]))
+            bvar += (p->ious()[w] - bmean) * (p->ious()[w] - bmean);
+      band.iou_mean = 100 * bmean;
+      band.iou_std = 100 * std::sqrt(bvar / bn);
+      band.detection_rate = 100 * bdet / bn;
+    }
+    s.bands.push_back(band);
+  }
   return s;
 }
 
+std::string band_name(const BandSummary& b) {
+  if (b.lo_pct <= 0) return "< " + fmt("%g", b.hi_pct) + " %";
+  if (b.hi_pct >= 100) return "≥ " + fmt("%g", b.lo_pct) + " %";
+  return fmt("%g", b.lo_pct) + "-" + fmt("%g", b.hi_pct) + " %";
+}
+
+void check_band_edges(const std::vector<double>& e) {
+  for (size_t i = 0; i < e.size(); ++i) {
+    if (!(e[i] > 0 && e[i] < 100))
+      fail("share bands", "",
+           "an edge must lie between 0 and 100 percent (exclusive), got " + fmt("%g", e[i]));
+    if (i > 0 && !(e[i] > e[i - 1]))
+      fail("share bands", "",
+           "edges must increase, got " + fmt("%g", e[i - 1]) + " then " + fmt("%g", e[i]));
+  }
+}
+
 DatasetResult dataset_result(std::string data, std::string split,
-                             const std::vector<SequenceScore>& sequences) {
+                             const std::vector<SequenceScore>& sequences,
+                             const std::vector<double>& band_edges_pct) {
   DatasetResult d;
   d.data = std::move(data);
   d.split = std::move(split);
@@ -66,8 +121,9 @@ DatasetResult dataset_result(std::string data, std::string split,
       else
         all_events = false;
     }
-    WindowSummary w = summarize(plain ? windows[i] : kalman[i - windows.size()], parts,
-                                all_events ? events : std::vector<const EventCounts*>{});
+    WindowSummary w =
+        summarize(plain ? windows[i] : kalman[i - windows.size()], parts,
+                  all_events ? events : std::vector<const EventCounts*>{}, band_edges_pct);
     w.kalman = !plain;
     return w;
   };
@@ -124,6 +180,23 @@ nlohmann::ordered_json row_json(const WindowSummary& w, bool with_sequences) {
     j["event_counts"] = {{"tp", e.tp}, {"fp", e.fp}, {"fn", e.fn}, {"tn", e.tn}};
   else
     j["event_counts"] = nullptr;
+  if (w.bands.empty()) {
+    j["share_bands"] = nullptr;
+  } else {
+    j["share_bands"] = nlohmann::ordered_json::array();
+    for (const BandSummary& b : w.bands) {
+      const bool some = b.windows > 0;
+      auto val = [&](double v) {
+        return some ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr);
+      };
+      j["share_bands"].push_back({{"share_min_pct", b.lo_pct},
+                                  {"share_max_pct", b.hi_pct},
+                                  {"windows", b.windows},
+                                  {"iou_mean", val(b.iou_mean)},
+                                  {"iou_std", val(b.iou_std)},
+                                  {"detection_rate", val(b.detection_rate)}});
+    }
+  }
   return j;
 }
 
@@ -228,6 +301,7 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
   j["gate_events"] = r.gate_events;
   j["boxes"] = r.boxes.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(r.boxes);
   j["static_scene"] = r.static_scene;
+  j["share_bands_pct"] = r.share_bands_pct;
   j["protocol"] = {
       {"window_start", "first event of each sequence"},
       {"partial_last_window", "dropped"},
@@ -246,6 +320,10 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
       {"units",
        "iou, detection_rate, event_precision, event_recall and moving_share in percent (0-100)"},
       {"moving_share", "the share of all events the runtime labels moving"},
+      {"share_bands",
+       "the scored windows split by the share of their input events that are truly moving "
+       "(edges share_bands_pct; a band is [share_min_pct, share_max_pct), the last one up to "
+       "100 inclusive); null where that share is unknown (boxes as truth, static scenes)"},
       {"events",
        "an event is predicted moving when the runtime labels it so (an output spike at its "
        "pixel within the label window: latency + " +
@@ -356,6 +434,36 @@ TextTable sequence_table(const EvalResults& r) {
   return t;
 }
 
+TextTable band_table(const EvalResults& r) {
+  TextTable t;
+  bool any = false;
+  for (const auto& m : r.models)
+    for (const auto& d : m.datasets)
+      for (const auto& w : d.windows) any = any || !w.bands.empty();
+  if (!any) return t;
+  t.header = {"model", "data", "split", "Δt ms"};
+  for (size_t b = 0; b <= r.share_bands_pct.size(); ++b) {
+    BandSummary band;
+    band.lo_pct = b == 0 ? 0 : r.share_bands_pct[b - 1];
+    band.hi_pct = b == r.share_bands_pct.size() ? 100 : r.share_bands_pct[b];
+    t.header.push_back(band_name(band) + ": IoU % (detection %, windows)");
+  }
+  for (const auto& m : r.models)
+    for (const auto& d : m.datasets)
+      for (const auto& w : d.windows) {
+        if (w.bands.empty()) continue;
+        std::vector<std::string> row = {model_label(r, m), d.data, d.split.empty() ? "–" : d.split,
+                                        window_cell(w)};
+        for (const BandSummary& b : w.bands)
+          row.push_back(b.windows == 0
+                            ? "– (–, 0)"
+                            : fmt("%.1f", b.iou_mean) + " (" + fmt("%.1f", b.detection_rate) +
+                                  ", " + std::to_string(b.windows) + ")");
+        t.rows.push_back(std::move(row));
+      }
+  return t;
+}
+
 std::string results_table(const EvalResults& r) {
   const TextTable t = summary_table(r);
   return markdown_table(t.header, t.rows);
@@ -392,6 +500,14 @@ std::string results_markdown(const EvalResults& r) {
          "std over all scored windows of a dataset; detection = 0-MMS. Windows without moving "
          "objects are skipped (counted). See docs/evaluation.md.\n\n";
   out += results_table(r);
+  const TextTable bands = band_table(r);
+  if (!bands.rows.empty()) {
+    out +=
+        "\n## By the moving share of a window's events\n\nThe scored windows split by the "
+        "share of their input events that are truly moving (small objects or dense "
+        "texture: a low share). See docs/evaluation.md, \"Size bands\".\n\n";
+    out += markdown_table(bands.header, bands.rows);
+  }
   out += "\n## Per sequence\n\n";
   const TextTable t = sequence_table(r);
   out += markdown_table(t.header, t.rows);

@@ -13,6 +13,22 @@
 
 namespace spikems {
 
+// The scored windows whose moving share (the fraction of their input events that are truly
+// moving: how much of what the camera sees is the objects) lies in [lo_pct, hi_pct), the last
+// band including 100. Object size decides these scores more than anything else
+// (docs/evaluation.md, "Size bands"), so they come per band as COCO's come per object area.
+struct BandSummary {
+  double lo_pct = 0, hi_pct = 100;
+  size_t windows = 0;
+  double iou_mean = 0, iou_std = 0, detection_rate = 0;  // percent; meaningless if windows == 0
+};
+
+// "< 2 %", "2-10 %", "≥ 10 %": a band's name in tables and plots.
+std::string band_name(const BandSummary& b);
+
+// The default band edges, percent: < 2 %, 2-10 %, >= 10 % of a window's events moving.
+inline const std::vector<double> kDefaultShareBandsPct = {2, 10};
+
 struct WindowSummary {
   int64_t window_us = 0;
   size_t windows = 0;  // scored windows (G not empty)
@@ -24,13 +40,21 @@ struct WindowSummary {
   // Events of the whole windows (scored and skipped), summed; none on Kalman rows.
   bool has_events = false;
   EventCounts events;
+  // One per band of the edges given to summarize(); empty when no scored window's moving
+  // share is known (boxes as truth, static scenes) or no edges were given.
+  std::vector<BandSummary> bands;
 };
 
 // Pools the windows of several sequences (one WindowScores each): IoU mean and population
 // standard deviation over all their scored windows, detections over all of them.
-// The event counts (optional: empty or one per part) are summed.
+// The event counts (optional: empty or one per part) are summed. band_edges_pct: increasing
+// edges in (0, 100) splitting the windows by moving share (BandSummary); {} = no bands.
 WindowSummary summarize(int64_t window_us, const std::vector<const WindowScores*>& parts,
-                        const std::vector<const EventCounts*>& events = {});
+                        const std::vector<const EventCounts*>& events = {},
+                        const std::vector<double>& band_edges_pct = kDefaultShareBandsPct);
+
+// Throws Error unless the edges are strictly increasing and inside (0, 100).
+void check_band_edges(const std::vector<double>& edges_pct);
 
 struct SequenceResult {
   std::string name;
@@ -48,7 +72,8 @@ struct DatasetResult {
 };
 
 DatasetResult dataset_result(std::string data, std::string split,
-                             const std::vector<SequenceScore>& sequences);
+                             const std::vector<SequenceScore>& sequences,
+                             const std::vector<double>& band_edges_pct = kDefaultShareBandsPct);
 
 struct ModelResult {
   std::string path, name;
@@ -73,6 +98,7 @@ struct EvalResults {
   bool gate_events = false;        // P ∩ E (EvalOptions::gate_events)
   std::string boxes;               // the boxes file giving G (EvalOptions::boxes); "" if none
   bool static_scene = false;       // every event background (EvalOptions::static_scene)
+  std::vector<double> share_bands_pct = kDefaultShareBandsPct;  // EvalOptions::share_bands_pct
   std::vector<ModelResult> models;
 };
 
@@ -91,6 +117,9 @@ struct TextTable {
 TextTable summary_table(const EvalResults& r);
 // One row per model, sequence and window length.
 TextTable sequence_table(const EvalResults& r);
+// One row per model, dataset and window length with bands: IoU, detection and windows per
+// band (empty when no row has bands).
+TextTable band_table(const EvalResults& r);
 // A model's short name in tables and plots: its file name, or the path as given where two
 // models share a file name (runs/a/best.safetensors against runs/b/best.safetensors); with
 // " θ×F" appended where its output threshold was scaled by F != 1.

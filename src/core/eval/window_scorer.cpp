@@ -78,6 +78,16 @@ void WindowScorer::add_events(const EventStream& c) {
     if (t < last_t_) fail_at_event("window scorer", events_seen_ + i, "time goes back");
     last_t_ = t;
     const bool moving = !boxes_ && c.label[i] != 0;  // with boxes, G comes from them (score)
+    if (!boxes_)
+      for (PerLength& l : lengths_) {
+        if (l.n_index < 0 || t >= l.n_end) {  // time-ordered: the window changes rarely
+          l.n_index = (t - origin_) / l.window_us;
+          l.n_end = origin_ + (l.n_index + 1) * l.window_us;
+          l.n_counts = &l.n[l.n_index];
+        }
+        (*l.n_counts)[0] += 1;
+        (*l.n_counts)[1] += moving;
+      }
     if (!moving && !any_filter_ && !gate_) continue;
     if (c.x[i] >= sensor_.width || c.y[i] >= sensor_.height)
       fail_at_event("window scorer", events_seen_ + i, "pixel outside the sensor");
@@ -175,7 +185,10 @@ void WindowScorer::score(size_t i, int64_t k) {
       c = count_masks(zeros_, g->second);
     }
   }
-  scores_[i].add(c);
+  double share = WindowScores::kUnknownShare;
+  if (auto n = l.n.find(k); !boxes_ && n != l.n.end() && n->second[0] > 0)
+    share = double(n->second[1]) / double(n->second[0]);
+  scores_[i].add(c, share);
   if (i == capture_length_ &&
       std::binary_search(capture_indices_.begin(), capture_indices_.end(), k)) {
     CapturedWindow w;
@@ -203,6 +216,11 @@ void WindowScorer::score(size_t i, int64_t k) {
     l.g_index = -1;
     l.g_mask = nullptr;
   }
+  l.n.erase(l.n.begin(), l.n.upper_bound(k));
+  if (l.n_index <= k) {
+    l.n_index = -1;
+    l.n_counts = nullptr;
+  }
 }
 
 void WindowScorer::finish(int64_t end_us, bool keep_partial) {
@@ -220,6 +238,9 @@ void WindowScorer::finish(int64_t end_us, bool keep_partial) {
     l.g.clear();
     l.e.clear();
     l.g_mask = nullptr;
+    l.n.clear();
+    l.n_index = -1;
+    l.n_counts = nullptr;
   }
   pool_.clear();
 }

@@ -11,6 +11,7 @@
 // an empty G are skipped and counted there).
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -107,6 +108,11 @@ class WindowScorer {
     std::map<int64_t, std::vector<uint8_t>> e;     // filtered lengths: pixels with any event
     int64_t g_index = -1;                          // cache: the window g_mask belongs to
     std::vector<uint8_t>* g_mask = nullptr;
+    // Input events per window: {all, truly moving}, for the window's moving share (labels
+    // only; with boxes the share is unknown).
+    std::map<int64_t, std::array<uint64_t, 2>> n;
+    int64_t n_index = -1, n_end = 0;  // cache: the window n_counts belongs to, its end (µs)
+    std::array<uint64_t, 2>* n_counts = nullptr;
   };
   std::vector<uint8_t>& mask_of(std::map<int64_t, std::vector<uint8_t>>& m, int64_t k);
   void score_ready(size_t length);

@@ -184,6 +184,11 @@ TEST(Report, PageHasTablesPlotsAndEveryImageItLinks) {
   EXPECT_NE(html.find("<td>50.0 ± 16.7</td><td>50.0</td>"), std::string::npos) << html;
   EXPECT_NE(html.find("src=\"plots/iou_by_window_1.svg\""), std::string::npos);
   EXPECT_NE(html.find("src=\"plots/iou_per_sequence_1.svg\""), std::string::npos);
+  // The size bands: their table (labelled events, so the shares are known) and their bars.
+  EXPECT_NE(html.find("src=\"plots/iou_by_share_1.svg\""), std::string::npos);
+  for (const auto& h : band_table(r).header)
+    EXPECT_NE(html.find("<th>" + xml_escape(h) + "</th>"), std::string::npos) << h;
+  EXPECT_EQ(band_table(r).header.size(), 7u);  // 4 + the three default bands
   // Two example windows (0 and 1); the first caption carries its IoU, 2 of 3 pixels.
   EXPECT_NE(html.find("src=\"windows/hand_000000000us.png\""), std::string::npos);
   EXPECT_NE(html.find("src=\"windows/hand_000002000us.png\""), std::string::npos);
@@ -194,7 +199,7 @@ TEST(Report, PageHasTablesPlotsAndEveryImageItLinks) {
   for (auto it = std::sregex_iterator(html.begin(), html.end(), src); it != std::sregex_iterator();
        ++it, ++images)
     EXPECT_TRUE(fs::is_regular_file(dir + "/" + (*it)[1].str())) << (*it)[1].str();
-  EXPECT_EQ(images, 4);
+  EXPECT_EQ(images, 5);
   const Image png = read_png_rgb(dir + "/windows/hand_000000000us.png");
   const Image want = example_image(ex.datasets[0][0].windows[0]);
   EXPECT_EQ(png.width, want.width);
