@@ -185,6 +185,18 @@ TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
               100.0 * double(e.tp + e.fn) / double(e.total()), 1e-9);
   EXPECT_NEAR(val[1]["full_moving"].get<double>(), 100 * e.moving_share(), 1e-9);
   EXPECT_GT(val[1]["full_event_base_rate"].get<double>(), 0.0);
+  // ... and its size bands (`spikems eval`'s default edges), each as eval scores it.
+  const auto& bands = val[1]["full_iou_bands"];
+  ASSERT_EQ(bands.size(), w.bands.size());
+  ASSERT_EQ(bands.size(), 3u);
+  for (size_t b = 0; b < bands.size(); ++b) {
+    EXPECT_EQ(bands[b]["share_min_pct"].get<double>(), w.bands[b].lo_pct);
+    EXPECT_EQ(bands[b]["windows"].get<size_t>(), w.bands[b].windows);
+    if (w.bands[b].windows > 0)
+      EXPECT_NEAR(bands[b]["iou_mean"].get<double>(), w.bands[b].iou_mean, 1e-9);
+    else
+      EXPECT_TRUE(bands[b]["iou_mean"].is_null());
+  }
   EXPECT_GT(val[1]["full_iou"].get<double>(), val[0]["full_iou"].get<double>() + 5.0);
   EXPECT_EQ(r.best_val_iou,
             std::max(val[0]["full_iou"].get<double>(), val[1]["full_iou"].get<double>()));

@@ -597,6 +597,8 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     // Event counts say whether the net tells moving objects from camera motion (precision above
     // the share of moving events) or merely fires where there are events; IoU alone hides that.
     EventCounts events;
+    // Size bands (results.h), pooled over the sources like the whole row.
+    std::vector<BandSummary> bands;
     for (const auto& src : c.val) {
       EvalOptions eo;
       eo.model_path = mp;
@@ -612,6 +614,15 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
       det_sum += w.detection_rate * double(w.windows);
       windows += w.windows;
       if (w.has_events) events += w.events;
+      if (bands.empty()) {
+        bands = w.bands;
+        for (BandSummary& b : bands) b.iou_mean *= double(b.windows);  // sums until the end
+      } else if (bands.size() == w.bands.size()) {
+        for (size_t b = 0; b < bands.size(); ++b) {
+          bands[b].iou_mean += w.bands[b].iou_mean * double(w.bands[b].windows);
+          bands[b].windows += w.bands[b].windows;
+        }
+      }
     }
     v["full_iou"] = windows ? iou_sum / double(windows) : 0.0;
     v["full_detection_rate"] = windows ? det_sum / double(windows) : 0.0;
@@ -620,6 +631,14 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     v["full_event_base_rate"] =
         events.total() ? 100 * double(events.tp + events.fn) / double(events.total()) : 0.0;
     v["full_moving"] = 100 * events.moving_share();
+    v["full_iou_bands"] = nlohmann::json::array();
+    for (const BandSummary& b : bands)
+      v["full_iou_bands"].push_back(
+          {{"share_min_pct", b.lo_pct},
+           {"share_max_pct", b.hi_pct},
+           {"windows", b.windows},
+           {"iou_mean",
+            b.windows ? nlohmann::json(b.iou_mean / double(b.windows)) : nlohmann::json()}});
     std::error_code ec;
     fs::remove(mp, ec);
   };
