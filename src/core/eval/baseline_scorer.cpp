@@ -19,6 +19,7 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
   if (!opt.capture_windows.empty()) scorer.capture(opt.capture_window_us, opt.capture_windows);
   scorer.gate_by_events(opt.gate_events);
   scorer.use_boxes(opt.boxes);
+  scorer.track_moving_share(opt.moving_share);
   EventTally tally(t0, scorer.frame_us());  // every event predicted moving
   const int64_t F = scorer.frame_us();
   PredictionFrame f;

@@ -152,6 +152,7 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   r.gate_events = opt.gate_events;
   r.static_scene = opt.static_scene;
   r.share_bands_pct = opt.share_bands_pct;
+  so.moving_share = !opt.share_bands_pct.empty();
   r.label_tolerance_steps = so.label_tolerance_steps;
   so.max_us = opt.max_seconds > 0 ? int64_t(opt.max_seconds * 1e6 + 0.5) : 0;
   size_t done = 0;

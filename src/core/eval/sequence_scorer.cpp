@@ -106,6 +106,7 @@ SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq
   if (!opt.capture_windows.empty()) scorer.capture(opt.capture_window_us, opt.capture_windows);
   scorer.gate_by_events(opt.gate_events);
   scorer.use_boxes(opt.boxes);
+  scorer.track_moving_share(opt.moving_share);
   EventTally tally(t0, scorer.frame_us());
   SegmenterOptions so;
   so.mask_window_us = scorer.frame_us();

@@ -41,6 +41,9 @@ struct SequenceScoreOptions {
   // then come from the same boxes (BoxTruth::label), for the event precision and recall.
   std::shared_ptr<const BoxTruth> boxes;
   std::vector<int64_t> capture_windows;
+  // Each window's moving share for the size bands (WindowScorer::track_moving_share); off
+  // when no bands are asked for (`--share-bands none`).
+  bool moving_share = true;
 };
 
 struct SequenceScore {

@@ -45,6 +45,12 @@ void WindowScorer::use_boxes(std::shared_ptr<const BoxTruth> boxes) {
   boxes_ = std::move(boxes);
 }
 
+void WindowScorer::track_moving_share(bool on) {
+  if (have_origin_)
+    fail("window scorer", "", "track_moving_share must come before the first events");
+  shares_ = on;
+}
+
 void WindowScorer::gate_by_events(bool on) {
   if (have_origin_) fail("window scorer", "", "gate_by_events must come before the first events");
   gate_ = on;
@@ -78,7 +84,7 @@ void WindowScorer::add_events(const EventStream& c) {
     if (t < last_t_) fail_at_event("window scorer", events_seen_ + i, "time goes back");
     last_t_ = t;
     const bool moving = !boxes_ && c.label[i] != 0;  // with boxes, G comes from them (score)
-    if (!boxes_)
+    if (shares_ && !boxes_)
       for (PerLength& l : lengths_) {
         if (l.n_index < 0 || t >= l.n_end) {  // time-ordered: the window changes rarely
           l.n_index = (t - origin_) / l.window_us;

@@ -88,6 +88,11 @@ class WindowScorer {
   // no labels here. The boxes must fit the sensor (BoxTruth::check_sensor).
   void use_boxes(std::shared_ptr<const BoxTruth> boxes);
 
+  // Counts each window's input events and moving ones, for its moving share (the size bands,
+  // results.h; WindowScores::moving_shares); on by default, unknown with boxes. Call before
+  // the first events.
+  void track_moving_share(bool on);
+
   // One per length, in the order given: the plain lengths, then the filtered ones.
   const std::vector<WindowScores>& scores() const { return scores_; }
 
@@ -136,6 +141,7 @@ class WindowScorer {
   std::vector<uint8_t> filtered_p_;  // scratch: P handed to a filter
   bool any_filter_ = false;
   bool gate_ = false;                      // P ∩ E for the plain lengths
+  bool shares_ = true;                     // track_moving_share
   std::shared_ptr<const BoxTruth> boxes_;  // G from boxes when set
   std::vector<uint8_t> gated_p_;           // scratch
 };

@@ -106,6 +106,25 @@ TEST(ShareBands, PoolsTheWindowsOfSeveralSequences) {
   EXPECT_EQ(n, s.windows);
 }
 
+TEST(ShareBands, TrackingCanBeTurnedOffBeforeTheFirstEvents) {
+  EventStream e;
+  e.sensor = SensorSize{4, 1};
+  add_window(e, 0, 1, 9);
+  e.push_back(1000, 1, 0, 1, 0);
+  WindowScorer s(e.sensor, {1000});
+  s.track_moving_share(false);  // `--share-bands none`: the scores stay, the shares are unknown
+  s.add_events(e);
+  s.add_frame(frame(0, {1, 0, 0, 0}));
+  s.finish(1001);
+  ASSERT_EQ(s.scores()[0].windows(), 1u);
+  EXPECT_DOUBLE_EQ(s.scores()[0].mean_iou(), 1.0);
+  EXPECT_TRUE(std::isnan(s.scores()[0].moving_shares()[0]));
+  EXPECT_TRUE(summarize(1000, {&s.scores()[0]}).bands.empty());
+  WindowScorer late(e.sensor, {1000});
+  late.add_events(e);
+  EXPECT_THROW(late.track_moving_share(false), Error);
+}
+
 TEST(ShareBands, UnknownSharesGiveNoBands) {
   WindowScores w;  // as with boxes for truth: no labels, no share
   w.add(MaskCounts{1, 1, 1});
