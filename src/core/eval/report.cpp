@@ -194,6 +194,9 @@ std::string write_report(const EvalResults& r, const EvalExamples& ex, const std
       so.x_label = "share of the window's events that move";
       so.y_label = "IoU % (mean)";
       so.y_min = 0;
+      so.y_max = 100;  // IoU's whole range: the bands compare across plots, and the legend
+                       // (top right) stays clear of the bars
+      so.width = 760;  // room for model file names in the legend
       const std::string band_file = "plots/iou_by_share_" + std::to_string(d + 1) + ".svg";
       write_svg((root / band_file).string(), svg_bar_plot(bands, per_model, so));
       page.image(band_file, "IoU per size band (" + ms(shown_us) + " ms windows), " + data);

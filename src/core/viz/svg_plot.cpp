@@ -92,9 +92,13 @@ void x_label(std::ostringstream& o, const Frame& f, const PlotOptions& opt) {
 
 void legend(std::ostringstream& o, const Frame& f, const std::vector<PlotSeries>& series) {
   o << "<g class=\"legend\">\n";
+  // Right-aligned by the longest label (~7 px per character at 12 px sans-serif), so that long
+  // model file names stay inside the picture; at least 150 px as before.
+  size_t longest = 0;
+  for (const auto& s : series) longest = std::max(longest, s.label.size());
+  const double x = f.w - f.right - std::max(150.0, 17.0 + 7.0 * double(longest));
   for (size_t i = 0; i < series.size(); ++i) {
     double y = f.top + 6 + double(i) * 16;
-    double x = f.w - f.right - 150;
     o << "<rect x=\"" << x << "\" y=\"" << y - 8 << "\" width=\"12\" height=\"10\" fill=\""
       << color_of(series[i], i) << "\"/>\n"
       << "<text x=\"" << x + 17 << "\" y=\"" << y + 1 << "\">" << xml_escape(series[i].label)
