@@ -87,6 +87,12 @@ void run(const Args& a) {
     write_report(r, examples, a.out);
   }
   std::fputs(results_table(r).c_str(), stdout);
+  const std::string bands = band_results_table(r);
+  if (!bands.empty())
+    std::printf(
+        "\nBy the moving share of the windows' events (docs/evaluation.md, \"Size "
+        "bands\"):\n%s",
+        bands.c_str());
   std::fflush(stdout);
   if (r.interrupted)
     std::fprintf(stderr, "spikems eval: interrupted; the results hold the sequences finished\n");

@@ -324,6 +324,7 @@ TEST_F(EvalCli, ShareBandsPartitionTheScoredWindows) {
   EXPECT_GT(with_windows, 0u);
   EXPECT_NE(slurp(o + "/results.md").find("| 5-20 %: IoU % (detection %, windows) |"),
             std::string::npos);
+  EXPECT_NE(out.find("| ≥ 20 %: IoU % (detection %, windows) |"), std::string::npos) << out;
   EXPECT_NE(slurp(o + "/report.html").find("5-20 %"), std::string::npos);
   EXPECT_NE(slurp(o + "/report.html").find("plots/iou_by_share_1.svg"), std::string::npos);
   EXPECT_TRUE(fs::exists(o + "/plots/iou_by_share_1.svg"));

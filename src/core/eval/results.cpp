@@ -469,6 +469,11 @@ std::string results_table(const EvalResults& r) {
   return markdown_table(t.header, t.rows);
 }
 
+std::string band_results_table(const EvalResults& r) {
+  const TextTable t = band_table(r);
+  return t.rows.empty() ? std::string() : markdown_table(t.header, t.rows);
+}
+
 std::string results_markdown(const EvalResults& r) {
   std::string out = "# spikems eval\n\n";
   out += "- command: `" + r.command_line + "`\n";
@@ -500,13 +505,13 @@ std::string results_markdown(const EvalResults& r) {
          "std over all scored windows of a dataset; detection = 0-MMS. Windows without moving "
          "objects are skipped (counted). See docs/evaluation.md.\n\n";
   out += results_table(r);
-  const TextTable bands = band_table(r);
-  if (!bands.rows.empty()) {
+  const std::string bands = band_results_table(r);
+  if (!bands.empty()) {
     out +=
         "\n## By the moving share of a window's events\n\nThe scored windows split by the "
         "share of their input events that are truly moving (small objects or dense "
         "texture: a low share). See docs/evaluation.md, \"Size bands\".\n\n";
-    out += markdown_table(bands.header, bands.rows);
+    out += bands;
   }
   out += "\n## Per sequence\n\n";
   const TextTable t = sequence_table(r);

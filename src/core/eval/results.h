@@ -129,6 +129,8 @@ std::string model_file_label(const EvalResults& r, const std::string& path);
 
 // The summary table (one row per model, dataset and window), columns aligned.
 std::string results_table(const EvalResults& r);
+// band_table as aligned text, "" when no row has bands.
+std::string band_results_table(const EvalResults& r);
 std::string results_markdown(const EvalResults& r);
 // DIR/results.json, results.csv, results.md (the folder is created), each written atomically.
 void write_results(const EvalResults& r, const std::string& dir);
