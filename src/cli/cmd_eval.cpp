@@ -127,6 +127,8 @@ void add(CLI::App& app) {
       "(incremental prediction: filtered 3 ms windows beside the plain ones)\n"
       "  spikems eval --model m.safetensors --data ball.txt --boxes ball_boxes.csv --windows 10 "
       "(box ground truth, EED style)\n"
+      "  spikems eval --model m.safetensors --data data/val --split all --share-bands 1,5,20   "
+      "(IoU by object size: four bands of the windows' share of moving events)\n"
       "  spikems eval --model m.safetensors --data poster.npz --static-scene --windows 20   "
       "(a static scene: the share of events called moving)\n"
       "  spikems eval --model m.safetensors --data data/val --output-thresholds 1,1.1,1.2,1.3 "
