@@ -45,13 +45,10 @@ std::vector<double> parse_share_bands(const std::string& text) {
     if (item.empty() || used != item.size())
       fail("--share-bands", item,
            "not a number: give increasing percentages between 0 and 100, e.g. 2,10 (or none)");
-    if (!(v > 0 && v < 100))
-      fail("--share-bands", item, "each edge must lie between 0 and 100 percent (exclusive)");
-    if (!edges.empty() && !(v > edges.back()))
-      fail("--share-bands", text, "the edges must increase, e.g. 2,10");
     edges.push_back(v);
     start = comma + 1;
   }
+  check_band_edges(edges, "--share-bands");
   return edges;
 }
 

@@ -1,5 +1,6 @@
 #include "core/eval/results.h"
 
+#include <algorithm>
 #include <cmath>
 #include <ctime>
 #include <filesystem>
@@ -41,36 +42,35 @@ WindowSummary summarize(int64_t window_us, const std::vector<const WindowScores*
   for (const WindowScores* p : parts)
     for (double v : p->moving_shares()) known = known || !std::isnan(v);
   if (!known || band_edges_pct.empty()) return s;
-  check_band_edges(band_edges_pct);
-  for (size_t b = 0; b <= band_edges_pct.size(); ++b) {
-    BandSummary band;
-    band.lo_pct = b == 0 ? 0 : band_edges_pct[b - 1];
-    band.hi_pct = b == band_edges_pct.size() ? 100 : band_edges_pct[b];
-    const bool last = b == band_edges_pct.size();
-    auto in_band = [&](double share) {
-      const double pct = 100 * share;
-      return !std::isnan(share) && pct >= band.lo_pct && (last || pct < band.hi_pct);
-    };
-    double bsum = 0, bdet = 0;
-    for (const WindowScores* p : parts)
-      for (size_t w = 0; w < p->windows(); ++w)
-        if (in_band(p->moving_shares()[w])) {
-          ++band.windows;
-          bsum += p->ious()[w];
-          bdet += p->detections()[w];
-        }
-    if (band.windows > 0) {
-      const double bn = double(band.windows), bmean = bsum / bn;
-      double bvar = 0;
-      for (const WindowScores* p : parts)
-        for (size_t w = 0; w < p->windows(); ++w)
-          if (in_band(p->moving_shares()[w]))
-            bvar += (p->ious()[w] - bmean) * (p->ious()[w] - bmean);
-      band.iou_mean = 100 * bmean;
-      band.iou_std = 100 * std::sqrt(bvar / bn);
-      band.detection_rate = 100 * bdet / bn;
-    }
-    s.bands.push_back(band);
+  s.bands = bands_of(band_edges_pct);
+  // Each window's band, found once: [edge_{b-1}, edge_b), the last one up to 100 inclusive.
+  auto band_of = [&](double share) {
+    return size_t(std::upper_bound(band_edges_pct.begin(), band_edges_pct.end(), 100 * share) -
+                  band_edges_pct.begin());
+  };
+  std::vector<double> bsum(s.bands.size(), 0), bdet(s.bands.size(), 0);
+  for (const WindowScores* p : parts)
+    for (size_t w = 0; w < p->windows(); ++w)
+      if (const double share = p->moving_shares()[w]; !std::isnan(share)) {
+        const size_t b = band_of(share);
+        ++s.bands[b].windows;
+        bsum[b] += p->ious()[w];
+        bdet[b] += p->detections()[w];
+      }
+  std::vector<double> bvar(s.bands.size(), 0);
+  for (const WindowScores* p : parts)
+    for (size_t w = 0; w < p->windows(); ++w)
+      if (const double share = p->moving_shares()[w]; !std::isnan(share)) {
+        const size_t b = band_of(share);
+        const double d = p->ious()[w] - bsum[b] / double(s.bands[b].windows);
+        bvar[b] += d * d;
+      }
+  for (size_t b = 0; b < s.bands.size(); ++b) {
+    const double bn = double(s.bands[b].windows);
+    if (bn == 0) continue;
+    s.bands[b].iou_mean = 100 * (bsum[b] / bn);  // as the whole row: 100 x the mean
+    s.bands[b].iou_std = 100 * std::sqrt(bvar[b] / bn);
+    s.bands[b].detection_rate = 100 * bdet[b] / bn;
   }
   return s;
 }
@@ -81,15 +81,26 @@ std::string band_name(const BandSummary& b) {
   return fmt("%g", b.lo_pct) + "-" + fmt("%g", b.hi_pct) + " %";
 }
 
-void check_band_edges(const std::vector<double>& e) {
+void check_band_edges(const std::vector<double>& e, const std::string& source) {
   for (size_t i = 0; i < e.size(); ++i) {
     if (!(e[i] > 0 && e[i] < 100))
-      fail("share bands", "",
-           "an edge must lie between 0 and 100 percent (exclusive), got " + fmt("%g", e[i]));
+      fail(source, "",
+           "each edge must lie between 0 and 100 percent (exclusive), got " + fmt("%g", e[i]));
     if (i > 0 && !(e[i] > e[i - 1]))
-      fail("share bands", "",
-           "edges must increase, got " + fmt("%g", e[i - 1]) + " then " + fmt("%g", e[i]));
+      fail(source, "",
+           "the edges must increase (e.g. 2,10), got " + fmt("%g", e[i - 1]) + " then " +
+               fmt("%g", e[i]));
   }
+}
+
+std::vector<BandSummary> bands_of(const std::vector<double>& e) {
+  check_band_edges(e);
+  std::vector<BandSummary> bands(e.size() + 1);
+  for (size_t b = 0; b < bands.size(); ++b) {
+    bands[b].lo_pct = b == 0 ? 0 : e[b - 1];
+    bands[b].hi_pct = b == e.size() ? 100 : e[b];
+  }
+  return bands;
 }
 
 DatasetResult dataset_result(std::string data, std::string split,
@@ -323,7 +334,8 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
       {"share_bands",
        "the scored windows split by the share of their input events that are truly moving "
        "(edges share_bands_pct; a band is [share_min_pct, share_max_pct), the last one up to "
-       "100 inclusive); null where that share is unknown (boxes as truth, static scenes)"},
+       "100 inclusive); null where no window was scored, where that share is unknown (boxes as "
+       "truth) or with no edges"},
       {"events",
        "an event is predicted moving when the runtime labels it so (an output spike at its "
        "pixel within the label window: latency + " +
@@ -442,12 +454,8 @@ TextTable band_table(const EvalResults& r) {
       for (const auto& w : d.windows) any = any || !w.bands.empty();
   if (!any) return t;
   t.header = {"model", "data", "split", "Δt ms"};
-  for (size_t b = 0; b <= r.share_bands_pct.size(); ++b) {
-    BandSummary band;
-    band.lo_pct = b == 0 ? 0 : r.share_bands_pct[b - 1];
-    band.hi_pct = b == r.share_bands_pct.size() ? 100 : r.share_bands_pct[b];
+  for (const BandSummary& band : bands_of(r.share_bands_pct))
     t.header.push_back(band_name(band) + ": IoU % (detection %, windows)");
-  }
   for (const auto& m : r.models)
     for (const auto& d : m.datasets)
       for (const auto& w : d.windows) {

@@ -53,8 +53,12 @@ WindowSummary summarize(int64_t window_us, const std::vector<const WindowScores*
                         const std::vector<const EventCounts*>& events = {},
                         const std::vector<double>& band_edges_pct = kDefaultShareBandsPct);
 
-// Throws Error unless the edges are strictly increasing and inside (0, 100).
-void check_band_edges(const std::vector<double>& edges_pct);
+// Throws Error, naming `source` (e.g. the option that gave them), unless the edges are
+// strictly increasing and inside (0, 100).
+void check_band_edges(const std::vector<double>& edges_pct,
+                      const std::string& source = "share bands");
+// The bands the edges make, empty: lo_pct / hi_pct set, no windows (edges checked).
+std::vector<BandSummary> bands_of(const std::vector<double>& edges_pct);
 
 struct SequenceResult {
   std::string name;

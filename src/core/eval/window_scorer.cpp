@@ -192,7 +192,7 @@ void WindowScorer::score(size_t i, int64_t k) {
     }
   }
   double share = WindowScores::kUnknownShare;
-  if (auto n = l.n.find(k); !boxes_ && n != l.n.end() && n->second[0] > 0)
+  if (auto n = l.n.find(k); n != l.n.end() && n->second[0] > 0)  // none counted with boxes
     share = double(n->second[1]) / double(n->second[0]);
   scores_[i].add(c, share);
   if (i == capture_length_ &&
