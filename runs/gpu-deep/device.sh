@@ -16,7 +16,10 @@
 # SEED_A / SEED_B (the training rooms' seeds, default 41 / 43), ROOM_S (their length, 1.5s),
 # STEPS (--steps, the learning-rate schedule's length; default 3000), VAL_EVERY (default 250),
 # KEEP=1 (run.keep_val_models: every validation's model comes back, to be chosen here by
+# held-out rooms and the real poster)# KEEP=1 (run.keep_val_models: every validation's model comes back, to be chosen here by
 # held-out rooms and the real poster).
+# SIM_A / SIM_B: the simulator's scene arguments for chunk a / b (default `--preset mod`; e.g.
+# SIM_A="--config runs/flat23/mod-flat.toml": the same rooms as SEED_A's with flat patches).
 # The logs come back in $OUT/logs.tar.gz; a run larger than 15 MB packed comes back in parts
 # (NAME.partK.tar.gz: unpack all of them into one folder).
 # For a dry run on a CPU machine: SKIP_BUILD=<a spikems> DEVICE=cpu (EXTRA: more train arguments).
@@ -71,12 +74,14 @@ if ! $SIM --version >>"$OUT/main.log" 2>&1; then
   SIM=build-cuda/spikems
 fi
 mkdir -p data
-sim() {  # name n duration seed
-  nice -n 5 $SIM simulate --preset mod --sequences "$2" --duration "$3" --seed "$4" \
+sim() {  # name n duration seed [scene arguments, default --preset mod]
+  # shellcheck disable=SC2086  # the scene arguments are words
+  nice -n 5 $SIM simulate ${5:---preset mod} --sequences "$2" --duration "$3" --seed "$4" \
     --mask-period 10ms --no-progress --out "data/$1.partial" >>"$OUT/sim.log" 2>&1 &&
     mv "data/$1.partial" "data/$1" && log "made data/$1"
 }
-(sim mod2-val 8 1s 3001 && sim gpu-train-a "$ROOMS" "$ROOM_S" "$SEED_A" && sim gpu-train-b "$ROOMS" "$ROOM_S" "$SEED_B") &
+(sim mod2-val 8 1s 3001 && sim gpu-train-a "$ROOMS" "$ROOM_S" "$SEED_A" "${SIM_A:-}" &&
+  sim gpu-train-b "$ROOMS" "$ROOM_S" "$SEED_B" "${SIM_B:-}") &
 SPID=$!
 
 wait $BPID

@@ -209,6 +209,37 @@ TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
   EXPECT_TRUE(fs::exists(dir + "/curves.svg"));
 }
 
+// data.val_static: at each validation the share of the static scenes' events the model calls
+// moving, which is `spikems eval --static-scene`'s number for the model of that step (here the
+// training sequence itself, read as if every event were background).
+TEST(Trainer, StaticValidationIsEvalsFalsePositiveShare) {
+  const std::string dir = scratch_dir() + "/run";
+  const std::string data = scratch_dir() + "/data";
+  auto ov = one_sequence_overrides(data, 6);
+  for (const char* k : {"run.val_every=3", "run.val_full_s=0.2", "run.val_full_window_ms=20"})
+    ov.push_back(k);
+  ov.push_back("data.val_static=[{path=\"" + data + "/seq_0000.h5\"}]");
+  EXPECT_EQ(train_quietly(ov, dir).steps, 6);
+  auto val = read_log(dir, "val");
+  ASSERT_EQ(val.size(), 3u);  // steps 0, 3, 6
+  for (const auto& v : val) ASSERT_TRUE(v.contains("static_moving")) << v.dump();
+  EvalOptions eo;
+  eo.model_path = dir + "/model.safetensors";
+  eo.data = {data + "/seq_0000.h5"};
+  eo.windows_us = {20000};
+  eo.max_seconds = 0.2;
+  eo.static_scene = true;
+  const WindowSummary w = evaluate(eo).models.at(0).datasets.at(0).windows.at(0);
+  ASSERT_TRUE(w.has_events);
+  EXPECT_EQ(w.events.tp + w.events.fn, 0u);  // static: no event is truly moving
+  EXPECT_NEAR(val[2]["static_moving"].get<double>(), 100 * w.events.moving_share(), 1e-9);
+  EXPECT_EQ(val[2]["static_events"].get<uint64_t>(), w.events.total());
+  EXPECT_GT(w.events.total(), 1000u);
+  EXPECT_GT(val[2]["static_moving"].get<double>(), 0.0);  // some calls: a comparison, not 0 = 0
+  // The same data scored as labelled: its moving share equals the static share's calls.
+  EXPECT_NEAR(val[2]["full_moving"].get<double>(), val[2]["static_moving"].get<double>(), 1e-9);
+}
+
 // model.readout = "potential": the loss scores the output layer's potential; the run learns
 // as the spiking readout does, and the model file's output layer has no refractory (so the
 // runtime's labels are the potential's threshold crossings; RuntimeVsTorch checks those).
@@ -421,6 +452,9 @@ TEST(Trainer, BadConfigsNameTheKey) {
                 .find("loss.rate_ceilings: each must lie above loss.rate_floor"),
             std::string::npos);
   EXPECT_NE(msg({"loss.teacher_weight=-1.0"}).find("loss.teacher_weight: must not be negative"),
+            std::string::npos);
+  EXPECT_NE(msg({"data.val=[]", "data.val_static=[{path=\"" + tiny_data() + "\"}]"})
+                .find("data.val_static: needs data.val too"),
             std::string::npos);
   EXPECT_NE(msg({"loss.offevent_weight=-1.0"}).find("loss.offevent_weight: must not be negative"),
             std::string::npos);

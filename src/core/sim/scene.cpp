@@ -33,8 +33,9 @@ Quat random_rotation(std::mt19937_64& rng) {
               b * std::sin(2 * kPi * u3)};
 }
 
-int add_texture(Scene& s, const SimConfig& c, std::mt19937_64& rng, double mean_lo,
-                double mean_hi) {
+// background: a wall or plane, which gets the config's flat patches.
+int add_texture(Scene& s, const SimConfig& c, std::mt19937_64& rng, double mean_lo, double mean_hi,
+                bool background = false) {
   TextureParams p;
   const std::string& entry = c.textures[size_t(draw_int(rng, 0, int(c.textures.size()) - 1))];
   const bool is_dir = entry.rfind(kTextureDirPrefix, 0) == 0;
@@ -44,6 +45,10 @@ int add_texture(Scene& s, const SimConfig& c, std::mt19937_64& rng, double mean_
   p.mean = draw(rng, {mean_lo, mean_hi});
   p.log_contrast = draw(rng, c.log_contrast);
   p.angle = draw(rng, {0, kPi});
+  if (background && c.flat_patches.hi > 0) {  // from the texture's seed: the scene's draws stay
+    std::mt19937_64 own(p.seed ^ 0x5bd1e9955bd1e995ull);
+    p.flat_fraction = draw(own, c.flat_patches);
+  }
   if (is_dir) {  // one image of the folder, drawn last so other draws keep their order
     const auto& files = image_texture_files(entry.substr(std::string(kTextureDirPrefix).size()));
     p.image_path = files[size_t(draw_int(rng, 0, int(files.size()) - 1))];
@@ -225,9 +230,9 @@ Scene make_random_scene(const SimConfig& c, const Camera& cam, std::mt19937_64& 
     // The camera stands in the back third of the room, looking at the far wall.
     room.motion.position = {draw(rng, {-0.15 * W, 0.15 * W}), draw(rng, {-0.1 * H, 0.1 * H}),
                             D * draw(rng, {0.15, 0.3})};
-    room.texture = add_texture(s, c, rng, 0.3, 0.8);
-    add_texture(s, c, rng, 0.3, 0.8);
-    add_texture(s, c, rng, 0.3, 0.8);
+    room.texture = add_texture(s, c, rng, 0.3, 0.8, true);
+    add_texture(s, c, rng, 0.3, 0.8, true);
+    add_texture(s, c, rng, 0.3, 0.8, true);
     room.tile_m = draw(rng, c.texture_tile_m);
     s.shapes.push_back(room);
   } else {
@@ -249,7 +254,7 @@ Scene make_random_scene(const SimConfig& c, const Camera& cam, std::mt19937_64& 
                            last ? 0 : z * tan_y * draw(rng, {-0.6, 0.6}), z};
       q.motion.orientation =
           last ? Quat{} : Quat::from_rotvec({draw(rng, {-0.3, 0.3}), draw(rng, {-0.4, 0.4}), 0});
-      q.texture = add_texture(s, c, rng, 0.25, 0.85);
+      q.texture = add_texture(s, c, rng, 0.25, 0.85, true);
       q.tile_m = draw(rng, c.texture_tile_m);
       s.shapes.push_back(q);
     }

@@ -232,6 +232,7 @@ SimConfig parse_sim_config(const std::string& text, const std::string& source,
     s.range("texture_frequency", c.texture_frequency);
     s.range("log_contrast", c.log_contrast);
     s.range("texture_tile_m", c.texture_tile_m);
+    s.range("flat_patches", c.flat_patches);
     s.range("illumination", c.illumination);
     s.range("ambient", c.ambient);
     s.range_or_num("flicker_hz", c.flicker_hz);
@@ -425,6 +426,8 @@ void validate_sim_config(const SimConfig& c, const std::string& src) {
   need(c.plane_depth.lo > 0.05, "[scene] plane_depth", "must be > 0.05 m");
   need(c.texture_frequency.lo >= 1, "[scene] texture_frequency", "must be >= 1");
   need(c.texture_tile_m.lo > 0, "[scene] texture_tile_m", "must be positive");
+  need(c.flat_patches.lo >= 0 && c.flat_patches.hi <= 0.9, "[scene] flat_patches",
+       "must be within [0, 0.9] (a share of the tile)");
   need(c.illumination.lo > 0, "[scene] illumination", "must be positive");
   need(c.ambient.lo >= 0 && c.ambient.hi <= 1, "[scene] ambient", "must be within [0, 1]");
   need(c.objects_min >= 0 && c.objects_max >= c.objects_min && c.objects_max <= 64,

@@ -61,6 +61,10 @@ struct SimConfig {
   Range texture_frequency{2, 10};
   Range log_contrast{0.8, 2.5};
   Range texture_tile_m{0.5, 2.0};  // size of one texture tile in metres
+  // Share of each background texture (room walls, planes) made flat by patches (texture.h,
+  // apply_flat_patches), drawn per surface from its texture's seed: {0, 0} = none, and the
+  // scene is otherwise unchanged by it (no draws from the sequence's generator).
+  Range flat_patches{0, 0};
   Range illumination{0.4, 1.0};
   Range ambient{0.3, 0.7};
   // Lighting flicker: intensity x (1 + depth sin(2 pi f t + phase)), applied to the rendered

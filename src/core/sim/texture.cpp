@@ -289,7 +289,43 @@ std::vector<float> texture_values(const TextureParams& p) {
   auto [mn, mx] = std::minmax_element(img.begin(), img.end());
   float lo = *mn, hi = *mx;
   for (auto& v : img) v = hi > lo ? (v - lo) / (hi - lo) : 0.5f;
+  // After the normalisation, so a patch keeps the level 1/2 that the albedo map sends to `mean`.
+  if (p.flat_fraction > 0) apply_flat_patches(img, p.flat_fraction, p.seed ^ 0x9e3779b97f4a7c15ull);
   return img;
+}
+
+double apply_flat_patches(std::vector<float>& v, double fraction, uint64_t seed) {
+  const int n = Texture::kTile;
+  if (v.size() != size_t(n) * n)
+    fail("texture", "", "flat patches need a " + std::to_string(n) + "^2 tile");
+  if (!(fraction >= 0 && fraction <= 1)) fail("texture", "", "flat fraction must be in [0, 1]");
+  // Per texel the smallest contrast factor of the patches over it (1 = outside every patch).
+  std::vector<float> k(v.size(), 1.0f);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> U(0, 1);
+  size_t covered = 0;
+  const size_t target = size_t(std::ceil(fraction * double(v.size())));
+  for (int i = 0; i < kMaxFlatPatches && covered < target; ++i) {
+    const bool disc = U(rng) < 0.3;
+    const double cu = U(rng), cv = U(rng);
+    const double hu = 0.08 + 0.22 * U(rng), hv = disc ? hu : 0.08 + 0.22 * U(rng);
+    const float factor = float(0.3 * U(rng));
+    // Texel rows and columns the patch's box spans, wrapped onto the tile.
+    const int x0 = int(std::floor((cu - hu) * n)), x1 = int(std::ceil((cu + hu) * n));
+    const int y0 = int(std::floor((cv - hv) * n)), y1 = int(std::ceil((cv + hv) * n));
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        const double du = (x + 0.5) / n - cu, dv = (y + 0.5) / n - cv;
+        const bool inside =
+            disc ? du * du + dv * dv < hu * hu : std::fabs(du) < hu && std::fabs(dv) < hv;
+        if (!inside) continue;
+        float& kk = k[size_t((y % n + n) % n) * n + size_t((x % n + n) % n)];
+        if (kk == 1.0f) ++covered;
+        kk = std::min(kk, factor);
+      }
+  }
+  for (size_t i = 0; i < v.size(); ++i) v[i] = 0.5f + (v[i] - 0.5f) * k[i];
+  return double(covered) / double(v.size());
 }
 
 Texture::Texture(const TextureParams& p) : params_(p) {

@@ -43,6 +43,8 @@ struct TextureParams {
   double mean = 0.5;        // mean albedo
   double log_contrast = 1;  // albedo spans mean * exp(+-log_contrast/2)
   double angle = 0;         // stripes orientation (radians)
+  // Share of the tile covered by flat patches (apply_flat_patches); 0 = none.
+  double flat_fraction = 0;
   // Image: kTile x kTile values in [0,1] (row-major; see image_texture.h) and the file.
   std::shared_ptr<const std::vector<float>> image;
   std::string image_path;
@@ -51,6 +53,16 @@ struct TextureParams {
 // Level-0 values v in [0,1] (kTile x kTile, row-major) before the albedo map
 // mean x exp(log_contrast x (v - 1/2)); normalised so min = 0 and max = 1 (0.5 if flat).
 std::vector<float> texture_values(const TextureParams& p);
+
+// Flat patches: large axis-aligned rectangles and discs (half-sizes 0.08-0.3 of the tile,
+// wrapping across its border) in which the values' contrast about 1/2 is cut to a factor in
+// [0, 0.3] drawn per patch, dropped until at least `fraction` of the texels lie in one (at most
+// kMaxFlatPatches). A static surface then has event-dense and nearly silent regions side by
+// side with sharp borders, as real posters, walls and furniture do, so that a network cannot
+// take "a dense patch of events" for a moving object. The layout comes from `seed` alone.
+// Returns the share of texels covered (>= fraction unless the patch cap was reached).
+constexpr int kMaxFlatPatches = 64;
+double apply_flat_patches(std::vector<float>& v, double fraction, uint64_t seed);
 
 // Dead leaves (Lee, Mumford & Huang 2001): opaque discs, ellipses and rectangles at random
 // orientations, radii with p(r) ~ r^-3 in [kRMin, kRMax] tile units and grey values uniform in

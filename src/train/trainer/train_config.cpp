@@ -249,6 +249,9 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("model", "init_ann", c.init_ann);
   b.bind_sources("data", "train", c.train, "train");
   b.bind_sources("data", "val", c.val, "val");
+  b.bind_sources("data", "val_static", c.val_static, "all");
+  if (!c.val_static.empty() && c.val.empty())
+    b.bad("data", "val_static", "needs data.val too (it is scored at each validation)");
   SampleOptions& s = c.sample;
   double window_ms = double(s.window_us) / 1000, warmup_ms = double(s.warmup_us) / 1000,
          step_ms = double(s.step_us) / 1000;

@@ -56,6 +56,11 @@ struct TrainConfig {
   std::string init_ann;
   // [data]
   std::vector<DatasetSource> train, val;
+  // Static scenes (every event background, e.g. the simulator's `poster` preset with flat
+  // patches): at each validation the share of their events the model calls moving is logged
+  // (`static_moving`), a false-positive rate on data other than the real recordings it will be
+  // judged on. Needs `val`; default split "all".
+  std::vector<DatasetSource> val_static;
   // [sample]
   SampleOptions sample;
   // [loss]

@@ -237,6 +237,7 @@ nlohmann::json rates_json(const std::vector<double>& r) {
 
 struct Curves {
   std::vector<double> step, loss, val_step, val_iou, val_det, full_step, full_iou;
+  std::vector<double> static_step, static_moving;
   void add(const nlohmann::json& j) {
     if (j.value("kind", "") == "train") {
       step.push_back(j["step"].get<double>());
@@ -248,6 +249,10 @@ struct Curves {
       if (j.contains("full_iou")) {
         full_step.push_back(j["step"].get<double>());
         full_iou.push_back(j["full_iou"].get<double>());
+      }
+      if (j.contains("static_moving")) {
+        static_step.push_back(j["step"].get<double>());
+        static_moving.push_back(j["static_moving"].get<double>());
       }
     }
   }
@@ -270,6 +275,8 @@ struct Curves {
       series.push_back({"IoU (crops)", val_step, val_iou, {}, ""});
       series.push_back({"detection rate", val_step, val_det, {}, ""});
       if (!full_step.empty()) series.push_back({"IoU (whole sensor)", full_step, full_iou, {}, ""});
+      if (!static_step.empty())
+        series.push_back({"static scenes called moving", static_step, static_moving, {}, ""});
       all = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"640\" height=\"700\">" +
             std::string("<g>") + svg + "</g><g transform=\"translate(0,320)\">" +
             svg_line_plot(series, pv) + "</g></svg>";
@@ -588,57 +595,73 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   // Whole-sensor validation through the core evaluation (the numbers `spikems eval` prints),
   // one source at a time because each names its own split; windows pooled over sources.
   const bool full_val = c.val_full_s > 0 && !c.val.empty();
+  const bool static_val = !c.val_static.empty();
+  // One source as `spikems eval` scores it (static_scene: every event background).
+  auto eval_source = [&](const std::string& mp, const DatasetSource& src, bool static_scene) {
+    EvalOptions eo;
+    eo.model_path = mp;
+    eo.data = {src.path};
+    eo.split = src.split;
+    eo.windows_us = {int64_t(std::llround(c.val_full_window_ms * 1000))};
+    eo.threads = threads;
+    eo.max_seconds = c.val_full_s;
+    eo.gate_events = c.gate_events;
+    eo.static_scene = static_scene;
+    return WindowSummary(evaluate(eo).models.at(0).datasets.at(0).windows.at(0));
+  };
   auto validate_full = [&](nlohmann::json& v) {
-    if (!full_val) return;
+    if (!full_val && !static_val) return;
     const std::string mp = (dir / "val_model.safetensors").string();
     save_model_file(mp);
-    double iou_sum = 0, det_sum = 0;
-    size_t windows = 0;
-    // Event counts say whether the net tells moving objects from camera motion (precision above
-    // the share of moving events) or merely fires where there are events; IoU alone hides that.
-    EventCounts events;
-    // Size bands (results.h), pooled over the sources like the whole row.
-    std::vector<BandSummary> bands;
-    for (const auto& src : c.val) {
-      EvalOptions eo;
-      eo.model_path = mp;
-      eo.data = {src.path};
-      eo.split = src.split;
-      eo.windows_us = {int64_t(std::llround(c.val_full_window_ms * 1000))};
-      eo.threads = threads;
-      eo.max_seconds = c.val_full_s;
-      eo.gate_events = c.gate_events;
-      const EvalResults r = evaluate(eo);
-      const WindowSummary& w = r.models.at(0).datasets.at(0).windows.at(0);
-      iou_sum += w.iou_mean * double(w.windows);
-      det_sum += w.detection_rate * double(w.windows);
-      windows += w.windows;
-      if (w.has_events) events += w.events;
-      if (bands.empty()) {
-        bands = w.bands;
-        for (BandSummary& b : bands) b.iou_mean *= double(b.windows);  // sums until the end
-      } else if (bands.size() == w.bands.size()) {
-        for (size_t b = 0; b < bands.size(); ++b) {
-          bands[b].iou_mean += w.bands[b].iou_mean * double(w.bands[b].windows);
-          bands[b].windows += w.bands[b].windows;
+    if (full_val) {
+      double iou_sum = 0, det_sum = 0;
+      size_t windows = 0;
+      // Event counts say whether the net tells moving objects from camera motion (precision above
+      // the share of moving events) or merely fires where there are events; IoU alone hides that.
+      EventCounts events;
+      // Size bands (results.h), pooled over the sources like the whole row.
+      std::vector<BandSummary> bands;
+      for (const auto& src : c.val) {
+        const WindowSummary w = eval_source(mp, src, false);
+        iou_sum += w.iou_mean * double(w.windows);
+        det_sum += w.detection_rate * double(w.windows);
+        windows += w.windows;
+        if (w.has_events) events += w.events;
+        if (bands.empty()) {
+          bands = w.bands;
+          for (BandSummary& b : bands) b.iou_mean *= double(b.windows);  // sums until the end
+        } else if (bands.size() == w.bands.size()) {
+          for (size_t b = 0; b < bands.size(); ++b) {
+            bands[b].iou_mean += w.bands[b].iou_mean * double(w.bands[b].windows);
+            bands[b].windows += w.bands[b].windows;
+          }
         }
       }
+      v["full_iou"] = windows ? iou_sum / double(windows) : 0.0;
+      v["full_detection_rate"] = windows ? det_sum / double(windows) : 0.0;
+      v["full_windows"] = windows;
+      v["full_event_precision"] = 100 * events.precision();
+      v["full_event_base_rate"] =
+          events.total() ? 100 * double(events.tp + events.fn) / double(events.total()) : 0.0;
+      v["full_moving"] = 100 * events.moving_share();
+      v["full_iou_bands"] = nlohmann::json::array();
+      for (const BandSummary& b : bands)
+        v["full_iou_bands"].push_back(
+            {{"share_min_pct", b.lo_pct},
+             {"share_max_pct", b.hi_pct},
+             {"windows", b.windows},
+             {"iou_mean",
+              b.windows ? nlohmann::json(b.iou_mean / double(b.windows)) : nlohmann::json()}});
     }
-    v["full_iou"] = windows ? iou_sum / double(windows) : 0.0;
-    v["full_detection_rate"] = windows ? det_sum / double(windows) : 0.0;
-    v["full_windows"] = windows;
-    v["full_event_precision"] = 100 * events.precision();
-    v["full_event_base_rate"] =
-        events.total() ? 100 * double(events.tp + events.fn) / double(events.total()) : 0.0;
-    v["full_moving"] = 100 * events.moving_share();
-    v["full_iou_bands"] = nlohmann::json::array();
-    for (const BandSummary& b : bands)
-      v["full_iou_bands"].push_back(
-          {{"share_min_pct", b.lo_pct},
-           {"share_max_pct", b.hi_pct},
-           {"windows", b.windows},
-           {"iou_mean",
-            b.windows ? nlohmann::json(b.iou_mean / double(b.windows)) : nlohmann::json()}});
+    if (static_val) {  // every event background: what is called moving is a false positive
+      EventCounts calls;
+      for (const auto& src : c.val_static) {
+        const WindowSummary w = eval_source(mp, src, true);
+        if (w.has_events) calls += w.events;
+      }
+      v["static_moving"] = 100 * calls.moving_share();
+      v["static_events"] = calls.total();
+    }
     std::error_code ec;
     fs::remove(mp, ec);
   };
@@ -859,11 +882,15 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
                         " %, event precision " + percent(v["full_event_precision"].get<double>()) +
                         " % (base " + percent(v["full_event_base_rate"].get<double>()) + " %)"
                   : "";
-          std::fprintf(stderr, "%sval step %lld: IoU %s %%%s (best %s at %lld), detection %s %%\n",
-                       isatty(2) ? "\n" : "", (long long)st.step,
-                       percent(v["iou"].get<double>()).c_str(), whole.c_str(),
-                       percent(st.best_val_iou).c_str(), (long long)st.best_step,
-                       percent(v["detection_rate"].get<double>()).c_str());
+          const std::string still = static_val ? ", static scenes " +
+                                                     percent(v["static_moving"].get<double>()) +
+                                                     " % called moving"
+                                               : "";
+          std::fprintf(
+              stderr, "%sval step %lld: IoU %s %%%s%s (best %s at %lld), detection %s %%\n",
+              isatty(2) ? "\n" : "", (long long)st.step, percent(v["iou"].get<double>()).c_str(),
+              whole.c_str(), still.c_str(), percent(st.best_val_iou).c_str(),
+              (long long)st.best_step, percent(v["detection_rate"].get<double>()).c_str());
         }
       }
       const std::string key = "val/" + std::to_string(st.step);
