@@ -18,6 +18,8 @@
 # KEEP=1 (run.keep_val_models: every validation's model comes back, to be chosen here by
 # held-out rooms and the real poster)# KEEP=1 (run.keep_val_models: every validation's model comes back, to be chosen here by
 # held-out rooms and the real poster).
+# STATIC=N: also N static rooms and N static posters with flat patches (20 % of the samples)
+# and a static validation set (data.val_static); see static_sets below.
 # SIM_A / SIM_B: the simulator's scene arguments for chunk a / b (default `--preset mod`; e.g.
 # SIM_A="--config runs/flat23/mod-flat.toml": the same rooms as SEED_A's with flat patches).
 # The logs come back in $OUT/logs.tar.gz; a run larger than 15 MB packed comes back in parts
@@ -80,8 +82,17 @@ sim() {  # name n duration seed [scene arguments, default --preset mod]
     --mask-period 10ms --no-progress --out "data/$1.partial" >>"$OUT/sim.log" 2>&1 &&
     mv "data/$1.partial" "data/$1" && log "made data/$1"
 }
-(sim mod2-val 8 1s 3001 && sim gpu-train-a "$ROOMS" "$ROOM_S" "$SEED_A" "${SIM_A:-}" &&
-  sim gpu-train-b "$ROOMS" "$ROOM_S" "$SEED_B" "${SIM_B:-}") &
+# STATIC=N: static scenes with flat patches too (runs/flat23): N rooms without objects (1 s,
+# seed 95) and N posters (0.5 s, seed 97) as 20 % of the samples, and 8 posters (seed 601) that
+# every validation scores as data.val_static (the log's static_moving).
+static_sets() {
+  [ -z "${STATIC:-}" ] && return 0
+  sim gpu-static-a "$STATIC" 1s 95 "--config runs/flat23/modstatic-flat.toml" &&
+    sim gpu-static-b "$STATIC" 0.5s 97 "--config runs/flat23/poster-flat.toml"
+}
+(sim mod2-val 8 1s 3001 && { [ -z "${STATIC:-}" ] || sim val-static 8 0.5s 601 "--config runs/flat23/poster-flat.toml"; } &&
+  sim gpu-train-a "$ROOMS" "$ROOM_S" "$SEED_A" "${SIM_A:-}" &&
+  sim gpu-train-b "$ROOMS" "$ROOM_S" "$SEED_B" "${SIM_B:-}" && static_sets) &
 SPID=$!
 
 wait $BPID
@@ -107,8 +118,13 @@ fi
 # Train as soon as validation and the first chunk exist; take the second if it is made by WAIT_B.
 while [ ! -d data/gpu-train-a ] && kill -0 $SPID 2>/dev/null; do sleep 2; done
 [ -d data/gpu-train-a ] || { log "no training data"; tail -20 "$OUT/sim.log"; exit 1; }
-while [ ! -d data/gpu-train-b ] && [ $((SECONDS - T0)) -lt "${WAIT_B:-290}" ] && kill -0 $SPID 2>/dev/null; do sleep 2; done
-if [ -d data/gpu-train-b ]; then
+LAST=data/gpu-train-b
+[ -n "${STATIC:-}" ] && LAST=data/gpu-static-b
+while [ ! -d $LAST ] && [ $((SECONDS - T0)) -lt "${WAIT_B:-290}" ] && kill -0 $SPID 2>/dev/null; do sleep 2; done
+if [ -d data/gpu-static-b ]; then
+  TRAIN='data.train=[{path="data/gpu-train-a",split="all",weight=0.4},{path="data/gpu-train-b",split="all",weight=0.4},{path="data/gpu-static-a",split="all",weight=0.1},{path="data/gpu-static-b",split="all",weight=0.1}]'
+elif [ -d data/gpu-train-b ]; then
+  kill $SPID 2>/dev/null; pkill -f "simulate --config runs/flat23" 2>/dev/null
   TRAIN='data.train=[{path="data/gpu-train-a",split="all"},{path="data/gpu-train-b",split="all"}]'
 else
   kill $SPID 2>/dev/null; pkill -f "simulate --preset mod" 2>/dev/null
@@ -123,6 +139,7 @@ log "time limit ${LIM} s per run"
 C=(--device "${DEVICE:-cuda}" --time-limit "${LIM}s" -q --steps "${STEPS:-3000}" --set optim.batch=${BATCH:-8} --set run.loader_threads=4
    --set run.val_every=${VAL_EVERY:-250} --set "$TRAIN")
 [ -n "${KEEP:-}" ] && C+=(--set run.keep_val_models=true)
+[ -d data/val-static ] && C+=(--set 'data.val_static=[{path="data/val-static"}]')
 probe() {  # name extra-args...
   local name=$1; shift
   mkdir -p "runs/$name"
