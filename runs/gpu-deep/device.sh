@@ -16,7 +16,6 @@
 # SEED_A / SEED_B (the training rooms' seeds, default 41 / 43), ROOM_S (their length, 1.5s),
 # STEPS (--steps, the learning-rate schedule's length; default 3000), VAL_EVERY (default 250),
 # KEEP=1 (run.keep_val_models: every validation's model comes back, to be chosen here by
-# held-out rooms and the real poster)# KEEP=1 (run.keep_val_models: every validation's model comes back, to be chosen here by
 # held-out rooms and the real poster).
 # STATIC=N: also N static rooms and N static posters with flat patches (20 % of the samples)
 # and a static validation set (data.val_static); see static_sets below.

@@ -456,6 +456,11 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(msg({"data.val=[]", "data.val_static=[{path=\"" + tiny_data() + "\"}]"})
                 .find("data.val_static: needs data.val too"),
             std::string::npos);
+  // The static scenes are scored in windows of run.val_full_window_ms even with val_full_s = 0.
+  EXPECT_NE(msg({"run.val_full_s=0.0", "sample.step_ms=2", "run.val_full_window_ms=5",
+                 "data.val_static=[{path=\"" + tiny_data() + "\"}]"})
+                .find("run.val_full_window_ms: must be a multiple of sample.step_ms"),
+            std::string::npos);
   EXPECT_NE(msg({"loss.offevent_weight=-1.0"}).find("loss.offevent_weight: must not be negative"),
             std::string::npos);
   EXPECT_NE(msg({"loss.offevent_weight=1.0", "loss.projection=\"exponential\""})

@@ -452,7 +452,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.val_samples < 0) b.bad("run", "val_samples", "must not be negative");
   if (!(c.val_full_s >= 0)) b.bad("run", "val_full_s", "must not be negative");
   if (!(c.val_full_window_ms > 0)) b.bad("run", "val_full_window_ms", "must be positive");
-  if (c.val_full_s > 0 &&
+  if ((c.val_full_s > 0 || !c.val_static.empty()) &&  // both score windows of this length
       std::llround(c.val_full_window_ms * 1000) % std::llround(step_ms * 1000) != 0)
     b.bad("run", "val_full_window_ms", "must be a multiple of sample.step_ms");
   c.source = b.resolved();
