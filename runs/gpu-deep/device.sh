@@ -19,8 +19,11 @@
 # held-out rooms and the real poster).
 # STATIC=N: also N static rooms and N static posters with flat patches (20 % of the samples)
 # and a static validation set (data.val_static); see static_sets below.
+# STATIC_A / STATIC_B: the static rooms' / posters' configs (default runs/flat23/modstatic-flat.toml
+# / runs/flat23/poster-flat.toml; runs/sizes24/*-sizes.toml: two cameras per set).
 # SIM_A / SIM_B: the simulator's scene arguments for chunk a / b (default `--preset mod`; e.g.
-# SIM_A="--config runs/flat23/mod-flat.toml": the same rooms as SEED_A's with flat patches).
+# SIM_A="--config runs/flat23/mod-flat.toml": the same rooms as SEED_A's with flat patches;
+# runs/sizes24/mod-flat-sizes.toml: the same with a camera drawn per room).
 # The logs come back in $OUT/logs.tar.gz; a run larger than 15 MB packed comes back in parts
 # (NAME.partK.tar.gz: unpack all of them into one folder).
 # For a dry run on a CPU machine: SKIP_BUILD=<a spikems> DEVICE=cpu (EXTRA: more train arguments).
@@ -86,8 +89,8 @@ sim() {  # name n duration seed [scene arguments, default --preset mod]
 # every validation scores as data.val_static (the log's static_moving).
 static_sets() {
   [ -z "${STATIC:-}" ] && return 0
-  sim gpu-static-a "$STATIC" 1s 95 "--config runs/flat23/modstatic-flat.toml" &&
-    sim gpu-static-b "$STATIC" 0.5s 97 "--config runs/flat23/poster-flat.toml"
+  sim gpu-static-a "$STATIC" 1s 95 "--config ${STATIC_A:-runs/flat23/modstatic-flat.toml}" &&
+    sim gpu-static-b "$STATIC" 0.5s 97 "--config ${STATIC_B:-runs/flat23/poster-flat.toml}"
 }
 (sim mod2-val 8 1s 3001 && { [ -z "${STATIC:-}" ] || sim val-static 8 0.5s 601 "--config runs/flat23/poster-flat.toml"; } &&
   sim gpu-train-a "$ROOMS" "$ROOM_S" "$SEED_A" "${SIM_A:-}" &&
@@ -123,10 +126,10 @@ while [ ! -d $LAST ] && [ $((SECONDS - T0)) -lt "${WAIT_B:-290}" ] && kill -0 $S
 if [ -d data/gpu-static-b ]; then
   TRAIN='data.train=[{path="data/gpu-train-a",split="all",weight=0.4},{path="data/gpu-train-b",split="all",weight=0.4},{path="data/gpu-static-a",split="all",weight=0.1},{path="data/gpu-static-b",split="all",weight=0.1}]'
 elif [ -d data/gpu-train-b ]; then
-  kill $SPID 2>/dev/null; pkill -f "simulate --config runs/flat23" 2>/dev/null
+  kill $SPID 2>/dev/null; pkill -f "simulate --config runs/" 2>/dev/null
   TRAIN='data.train=[{path="data/gpu-train-a",split="all"},{path="data/gpu-train-b",split="all"}]'
 else
-  kill $SPID 2>/dev/null; pkill -f "simulate --preset mod" 2>/dev/null
+  kill $SPID 2>/dev/null; pkill -f "simulate --" 2>/dev/null
   TRAIN='data.train=[{path="data/gpu-train-a",split="all"}]'
 fi
 log "training on: $TRAIN"

@@ -1,5 +1,7 @@
 #include "core/dataset/batch_loader.h"
 
+#include <algorithm>
+
 namespace spikems {
 
 BatchLoader::BatchLoader(std::vector<const LabelledSequence*> seqs, std::vector<double> weights,
@@ -31,9 +33,29 @@ Batch BatchLoader::make(const std::vector<const LabelledSequence*>& seqs,
                         uint64_t seed, int64_t step, int first_sample) {
   Batch b;
   b.step = step;
+  // Whole-sensor samples of one batch must share a size (the network takes one tensor): where
+  // the sequences come from several sensors, the global batch's first sample picks the size
+  // (its sequence is the first draw of its own generator, which every rank can repeat) and the
+  // others are drawn among the sequences of that size, by their weights. A sequence's share
+  // of all samples is then what its weight gives, as without grouping.
+  std::vector<double> same_size;
+  if (opt.crop == 0 && !seqs.empty() &&
+      std::any_of(seqs.begin(), seqs.end(), [&](const LabelledSequence* q) {
+        return q->events.sensor.width != seqs[0]->events.sensor.width ||
+               q->events.sensor.height != seqs[0]->events.sensor.height;
+      })) {
+    std::mt19937_64 first(mix_seed(seed, uint64_t(step), 0));
+    const SensorSize z =
+        seqs[std::discrete_distribution<size_t>(weights.begin(), weights.end())(first)]
+            ->events.sensor;
+    same_size = weights;
+    for (size_t i = 0; i < seqs.size(); ++i)
+      if (seqs[i]->events.sensor.width != z.width || seqs[i]->events.sensor.height != z.height)
+        same_size[i] = 0;
+  }
   for (int j = first_sample; j < first_sample + batch; ++j) {
     std::mt19937_64 rng(mix_seed(seed, uint64_t(step), uint64_t(j)));
-    SampleSpec s = draw_sample(seqs, weights, opt, rng);
+    SampleSpec s = draw_sample(seqs, j == 0 || same_size.empty() ? weights : same_size, opt, rng);
     b.samples.push_back(extract_sample(*seqs[s.sequence], s, opt));
   }
   return b;
@@ -87,6 +109,11 @@ std::vector<Sample> validation_samples(const std::vector<const LabelledSequence*
     SampleSpec s = draw_sample(seqs, weights, o, rng);
     out.push_back(extract_sample(*seqs[s.sequence], s, o));
   }
+  // Sensors of several sizes: samples of one size side by side, so that validation batches
+  // hold one size where they can (to_tensors pads the rest); one size keeps the draw order.
+  std::stable_sort(out.begin(), out.end(), [](const Sample& a, const Sample& b) {
+    return std::pair{a.H, a.W} < std::pair{b.H, b.W};
+  });
   return out;
 }
 

@@ -2,7 +2,8 @@
 // Batch k holds the samples drawn from the seeds (seed, k, 0..B-1) alone (sample.h,
 // mix_seed): the data position of a run is just its step number, and a run resumed at step k
 // sees the very batches an uninterrupted run sees. A data-parallel rank makes only its share
-// of each global batch: samples first_sample .. first_sample + batch - 1.
+// of each global batch: samples first_sample .. first_sample + batch - 1. Whole-sensor batches
+// (crop 0) of sequences from several sensor sizes hold one size each (batch_loader.cpp).
 #pragma once
 
 #include <condition_variable>
@@ -58,7 +59,8 @@ class BatchLoader {
 };
 
 // A fixed validation set: `count` samples drawn without augmentation from (seed, stream
-// "validation", i), so every validation pass of a run scores the same windows.
+// "validation", i), so every validation pass of a run scores the same windows; ordered by
+// size (stable) where the sequences' sensors differ.
 std::vector<Sample> validation_samples(const std::vector<const LabelledSequence*>& seqs,
                                        const SampleOptions& opt, int count, uint64_t seed);
 

@@ -109,6 +109,22 @@ class Section {
       }
     }
   }
+  // A non-empty list of [width, height] pairs of integers.
+  void sizes(const char* key, std::vector<std::pair<int, int>>& out) {
+    auto* n = get(key);
+    if (!n) return;
+    auto* a = n->as_array();
+    if (!a || a->empty()) bad(key, "a non-empty list of [width, height] pairs");
+    out.clear();
+    for (auto& e : *a) {
+      auto* p = e.as_array();
+      if (!p || p->size() != 2 || !(*p)[0].value<int64_t>() || !(*p)[1].value<int64_t>())
+        bad(key, "a list of [width, height] pairs of integers");
+      const int64_t w = *(*p)[0].value<int64_t>(), h = *(*p)[1].value<int64_t>();
+      if (w < 8 || w > 4096 || h < 8 || h > 4096) bad(key, "sizes within 8..4096");
+      out.emplace_back(int(w), int(h));
+    }
+  }
   // `textures`: a list of kind names and "dir:PATH" entries, or one string PATH (= "dir:PATH").
   // Relative paths are taken from base_dir (the config file's folder; empty: current folder).
   void textures(const char* key, std::vector<std::string>& out, const std::string& base_dir) {
@@ -185,6 +201,8 @@ SimConfig parse_sim_config(const std::string& text, const std::string& source,
     s.num("fy", c.fy);
     s.num("cx", c.cx);
     s.num("cy", c.cy);
+    s.sizes("sizes", c.sizes);
+    s.range_or_num("hfov_deg", c.hfov_deg);
     s.check_unknown();
   }
   {
@@ -391,6 +409,15 @@ void validate_sim_config(const SimConfig& c, const std::string& src) {
   };
   need(c.width >= 8 && c.width <= 4096 && c.height >= 8 && c.height <= 4096, "[sensor]",
        "width and height must be within 8..4096");
+  need(c.hfov_deg.hi == 0 || (c.hfov_deg.lo >= 10 && c.hfov_deg.hi <= 170), "[sensor] hfov_deg",
+       "must be within [10, 170] degrees (or 0: fx, fy as given)");
+  need(c.hfov_deg.hi == 0 || (c.fx <= 0 && c.fy <= 0), "[sensor] hfov_deg",
+       "sets the focal length: remove fx and fy, or hfov_deg");
+  need(c.sizes.empty() || (c.cx < 0 && c.cy < 0), "[sensor] sizes",
+       "each size has its own image centre: remove cx and cy, or sizes");
+  for (const auto& [w, h] : c.sizes)
+    need(w >= 8 && w <= 4096 && h >= 8 && h <= 4096, "[sensor] sizes",
+         "each width and height must be within 8..4096");
   need(c.duration_us > 0, "[time] duration_s", "must be positive");
   need(c.dt_min_us >= 1 && c.dt_max_us >= c.dt_min_us, "[time] dt_min_us/dt_max_us",
        "need 1 <= dt_min_us <= dt_max_us");

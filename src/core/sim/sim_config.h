@@ -20,6 +20,12 @@ struct SimConfig {
   // the sensor width (fx = fy = 0.65 * width, principal point at the centre).
   int width = 346, height = 260;
   double fx = 0, fy = 0, cx = -1, cy = -1;
+  // Per-sequence cameras (draw_camera in simulate.h), so that a dataset spans the sensors and
+  // lenses of real cameras: `sizes` lists [width, height] pairs, one drawn uniformly per
+  // sequence (empty: width x height); `hfov_deg` a horizontal field of view drawn per sequence,
+  // fx = fy = (width / 2) / tan(hfov / 2) ({0, 0}: fx, fy as above).
+  std::vector<std::pair<int, int>> sizes;
+  Range hfov_deg{0, 0};
 
   // [time]
   int64_t duration_us = 2'000'000;

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <random>
 #include <thread>
+#include <tuple>
 
 #include "core/events/io.h"
 #include "core/sim/event_generator.h"
@@ -99,6 +100,23 @@ Camera camera_from_config(const SimConfig& c) {
     cam.fy = c.fx;
   if (c.cx >= 0) cam.cx = c.cx;
   if (c.cy >= 0) cam.cy = c.cy;
+  return cam;
+}
+
+Camera draw_camera(const SimConfig& c, uint64_t seed) {
+  if (c.sizes.empty() && c.hfov_deg.hi <= 0) return camera_from_config(c);
+  std::mt19937_64 rng(splitmix64(seed ^ 0xCA3E7A5Eull));
+  // Two draws whatever is set, so that adding one key does not change the other's draw.
+  const size_t k = size_t(rng() % std::max<uint64_t>(1, c.sizes.size()));
+  const double u = std::uniform_real_distribution<double>(0, 1)(rng);
+  SimConfig s = c;
+  if (!c.sizes.empty()) std::tie(s.width, s.height) = c.sizes[k];
+  Camera cam = camera_from_config(s);
+  if (c.hfov_deg.hi > 0) {
+    const double fov =
+        (c.hfov_deg.lo + u * (c.hfov_deg.hi - c.hfov_deg.lo)) * 3.141592653589793 / 180;
+    cam.fx = cam.fy = 0.5 * cam.width / std::tan(0.5 * fov);
+  }
   return cam;
 }
 
@@ -255,7 +273,7 @@ Recording simulate_scene(const Scene& scene, const Camera& cam, const SimConfig&
 Recording simulate_sequence(const SimConfig& cfg, uint64_t seed, const SimulateOptions& opt,
                             SimStats* stats) {
   std::mt19937_64 rng(seed);
-  Camera cam = camera_from_config(cfg);
+  Camera cam = draw_camera(cfg, seed);
   Scene scene = make_random_scene(cfg, cam, rng);
   // Sensor and flicker after the scene, from the same generator (the scene's draws unchanged).
   const SimConfig seq = draw_sequence_config(cfg, rng);
@@ -322,6 +340,8 @@ DatasetSummary simulate_dataset(const SimConfig& cfg, const DatasetOptions& opt)
         e["index"] = i;
         e["seed"] = seed;
         e["events"] = rec.events.size();
+        e["sensor"] = {rec.events.sensor.width, rec.events.sensor.height};
+        if (rec.intrinsics) e["fx"] = rec.intrinsics->fx;
         e["duration_us"] = cfg.duration_us;
         e["mask_frames"] = rec.masks.size();
         e["objects"] = rec.moving_ids.size();
@@ -373,7 +393,23 @@ DatasetSummary simulate_dataset(const SimConfig& cfg, const DatasetOptions& opt)
   manifest["config"] = opt.config_source;
   manifest["seed"] = opt.seed;
   manifest["noise"] = cfg.noise;
-  manifest["sensor"] = {cfg.width, cfg.height};
+  // One size, or (with [sensor] sizes) the list of the sizes the sequences got.
+  {
+    std::vector<std::pair<int, int>> seen;
+    for (int i = 0; i < opt.sequences; ++i)
+      if (written[size_t(i)]) {
+        std::pair<int, int> wh{entries[size_t(i)]["sensor"][0], entries[size_t(i)]["sensor"][1]};
+        if (std::find(seen.begin(), seen.end(), wh) == seen.end()) seen.push_back(wh);
+      }
+    std::sort(seen.begin(), seen.end());
+    if (seen.size() > 1) {
+      manifest["sensor"] = nlohmann::json::array();
+      for (auto [w, h] : seen) manifest["sensor"].push_back({w, h});
+    } else {
+      manifest["sensor"] = seen.empty() ? nlohmann::json::array({cfg.width, cfg.height})
+                                        : nlohmann::json::array({seen[0].first, seen[0].second});
+    }
+  }
   manifest["duration_us"] = cfg.duration_us;
   manifest["format"] = opt.format;
   manifest["interrupted"] = summary.interrupted;

@@ -44,6 +44,10 @@ struct SimStats {
 };
 
 Camera camera_from_config(const SimConfig& c);
+// The camera of the sequence with `seed`: camera_from_config, or where [sensor] sizes or
+// hfov_deg are set, a size and a field of view drawn from the seed's own generator (so the
+// scene's, sensor's and motions' draws are those of a fixed camera).
+Camera draw_camera(const SimConfig& c, uint64_t seed);
 NoiseParams noise_from_config(const SimConfig& c);
 // Seed of sequence `index` of a dataset made with `global_seed` (independent of threads).
 uint64_t sequence_seed(uint64_t global_seed, int index);

@@ -1,5 +1,8 @@
 #include "train/trainer/batch_tensors.h"
 
+#include <algorithm>
+#include <cstring>
+
 #include "core/util/error.h"
 
 namespace spikems::train {
@@ -8,14 +11,36 @@ BatchTensors to_tensors(const std::vector<Sample>& samples, double ts, torch::De
   if (samples.empty()) fail("batch", "", "no samples");
   const Sample& f = samples.front();
   const int64_t B = int64_t(samples.size());
-  auto in = torch::empty({B, f.T, 2, f.H, f.W}, torch::kUInt8);
-  auto fg = torch::empty({B, f.T, f.H, f.W}, torch::kUInt8);
+  int H = 0, W = 0;
+  for (size_t b = 0; b < samples.size(); ++b) {
+    const Sample& s = samples[b];
+    if (s.T != f.T || s.warmup_steps != f.warmup_steps)
+      fail("batch", "sample " + std::to_string(b), "samples of one batch differ in length");
+    if (s.input.size() != size_t(s.T) * 2 * size_t(s.H) * size_t(s.W) ||
+        s.fg.size() != size_t(s.T) * size_t(s.H) * size_t(s.W))
+      fail("batch", "sample " + std::to_string(b), "sample buffers do not match its size");
+    H = std::max(H, s.H);
+    W = std::max(W, s.W);
+  }
+  auto in = torch::zeros({B, f.T, 2, H, W}, torch::kUInt8);
+  auto fg = torch::zeros({B, f.T, H, W}, torch::kUInt8);
   for (int64_t b = 0; b < B; ++b) {
     const Sample& s = samples[size_t(b)];
-    if (s.T != f.T || s.H != f.H || s.W != f.W || s.warmup_steps != f.warmup_steps)
-      fail("batch", "sample " + std::to_string(b), "samples of one batch differ in size");
-    std::memcpy(in[b].data_ptr<uint8_t>(), s.input.data(), s.input.size());
-    std::memcpy(fg[b].data_ptr<uint8_t>(), s.fg.data(), s.fg.size());
+    if (s.H == H && s.W == W) {
+      std::memcpy(in[b].data_ptr<uint8_t>(), s.input.data(), s.input.size());
+      std::memcpy(fg[b].data_ptr<uint8_t>(), s.fg.data(), s.fg.size());
+      continue;
+    }
+    uint8_t* pi = in[b].data_ptr<uint8_t>();
+    uint8_t* pf = fg[b].data_ptr<uint8_t>();
+    for (int t = 0; t < s.T; ++t)
+      for (int y = 0; y < s.H; ++y) {
+        for (int c = 0; c < 2; ++c)
+          std::memcpy(pi + ((size_t(t) * 2 + size_t(c)) * size_t(H) + size_t(y)) * size_t(W),
+                      &s.input[s.at(t, c, y, 0)], size_t(s.W));
+        std::memcpy(pf + (size_t(t) * size_t(H) + size_t(y)) * size_t(W),
+                    &s.fg[(size_t(t) * size_t(s.H) + size_t(y)) * size_t(s.W)], size_t(s.W));
+      }
   }
   BatchTensors t;
   t.warmup_steps = f.warmup_steps;

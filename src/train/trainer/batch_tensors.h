@@ -15,7 +15,12 @@ struct BatchTensors {
   int warmup_steps = 0;
 };
 
-// Samples must share T, H, W and the warm-up. Throws Error otherwise.
+// Samples must share T and the warm-up (Error otherwise). Samples of different sizes (whole
+// sensors of a dataset with several cameras) are placed at the top-left of the largest height
+// and width of the batch, the rest left empty: no input and no foreground there, so the losses
+// (which look at pixels with input events, or take silence there as correct) and the window
+// counts are those of each sample alone, and the network sees a sensor edge as it sees one
+// with zero padding.
 BatchTensors to_tensors(const std::vector<Sample>& samples, double ts, torch::Device device);
 
 // Per sample, the mask counts of its window: P = pixels with any output spike in the window's

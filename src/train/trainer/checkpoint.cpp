@@ -17,6 +17,12 @@ void save_checkpoint(const std::string& path, torch::nn::Module& net, torch::opt
   ar.write("best_val_iou", torch::tensor(st.best_val_iou, torch::kFloat64));
   ar.write("best_step", torch::tensor(st.best_step, torch::kInt64));
   ar.write("wall_seconds", torch::tensor(st.wall_seconds, torch::kFloat64));
+  if (!st.ema.empty()) {
+    ar.write("ema_count", torch::tensor(int64_t(st.ema.size()), torch::kInt64));
+    ar.write("ema_updates", torch::tensor(st.ema_updates, torch::kInt64));
+    for (size_t k = 0; k < st.ema.size(); ++k)
+      ar.write("ema_" + std::to_string(k), st.ema[k].to(torch::kCPU));
+  }
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
   try {
     ar.save_to(tmp);
@@ -49,6 +55,12 @@ CheckpointState load_checkpoint(const std::string& path, torch::nn::Module& net,
     st.best_val_iou = scalar("best_val_iou").item<double>();
     st.best_step = scalar("best_step").item<int64_t>();
     st.wall_seconds = scalar("wall_seconds").item<double>();
+    torch::Tensor n;
+    if (ar.try_read("ema_count", n)) {
+      st.ema_updates = scalar("ema_updates").item<int64_t>();
+      for (int64_t k = 0; k < n.item<int64_t>(); ++k)
+        st.ema.push_back(scalar(("ema_" + std::to_string(k)).c_str()));
+    }
   } catch (const c10::Error& e) {
     fail(path, "",
          "not a usable spikems checkpoint for this network: " +

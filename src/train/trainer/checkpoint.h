@@ -8,6 +8,7 @@
 #include <torch/torch.h>
 
 #include <string>
+#include <vector>
 
 namespace spikems::train {
 
@@ -16,6 +17,10 @@ struct CheckpointState {
   double best_val_iou = -1;  // best validation IoU (%) so far, -1: none yet
   int64_t best_step = -1;
   double wall_seconds = 0;  // training time spent so far (over every session)
+  // The averaged weights (optim.ema_decay), one per parameter in parameters() order, and the
+  // number of updates they have had; empty without averaging (and in older checkpoints).
+  std::vector<torch::Tensor> ema;
+  int64_t ema_updates = 0;
 };
 
 void save_checkpoint(const std::string& path, torch::nn::Module& net, torch::optim::Optimizer& opt,

@@ -303,6 +303,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("optim", "batch", c.batch);
   b.bind("optim", "steps", c.steps);
   b.bind("optim", "clip", c.clip);
+  b.bind("optim", "ema_decay", c.ema_decay);
   b.bind("optim", "warmup_backprop", c.warmup_backprop);
   int64_t seed = int64_t(c.seed);
   b.bind("run", "seed", seed);
@@ -434,6 +435,8 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   one_of(b, "optim", "schedule", c.schedule, {"cosine", "step", "constant"});
   if (c.batch < 1) b.bad("optim", "batch", "must be at least 1");
   if (c.steps < 1) b.bad("optim", "steps", "must be at least 1");
+  if (!(c.ema_decay >= 0 && c.ema_decay < 1))
+    b.bad("optim", "ema_decay", "must be in [0, 1) (0: no weight averaging; 0.999 is usual)");
   if (c.warmup_steps < 0) b.bad("optim", "warmup_steps", "must not be negative");
   if (c.step_every < 1) b.bad("optim", "step_every", "must be at least 1");
   if (!c.warmup_backprop && c.delays)

@@ -524,6 +524,39 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   dist.wait_for_root("init");
   dist.broadcast_module(net.module());  // rank 0's initial (or resumed) weights everywhere
   net.module().to(device);
+  // Weight averaging (optim.ema_decay): every rank applies the same averaged gradients, so
+  // every rank's average is the same; a resume continues the checkpoint's average.
+  std::vector<torch::Tensor> params = net.module().parameters();
+  if (c.ema_decay > 0) {
+    torch::NoGradGuard ng;
+    if (st.ema.empty()) {
+      for (const auto& p : params) st.ema.push_back(p.detach().clone());
+      st.ema_updates = 0;
+    } else {
+      if (st.ema.size() != params.size())
+        fail(ckpt_path, "", "its averaged weights do not fit this network");
+      for (size_t k = 0; k < params.size(); ++k) {
+        if (!st.ema[k].sizes().equals(params[k].sizes()))
+          fail(ckpt_path, "", "its averaged weights do not fit this network");
+        st.ema[k] = st.ema[k].to(params[k].options());
+      }
+    }
+  } else {
+    st.ema.clear();  // a resume with averaging turned off drops it
+  }
+  // Runs fn with the averaged weights in the network (validation, saved models), then puts the
+  // trained weights back; without averaging, just fn.
+  auto with_average = [&](auto&& fn) {
+    if (st.ema.empty()) return fn();
+    torch::NoGradGuard ng;
+    std::vector<torch::Tensor> trained;
+    for (size_t k = 0; k < params.size(); ++k) {
+      trained.push_back(params[k].detach().clone());
+      params[k].copy_(st.ema[k]);
+    }
+    fn();
+    for (size_t k = 0; k < params.size(); ++k) params[k].copy_(trained[k]);
+  };
   std::ofstream log;
   if (root) log.open(log_path, std::ios::app);
   auto log_line = [&](const nlohmann::json& j) {
@@ -670,13 +703,13 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     return full_val ? v["full_iou"].get<double>() : v["iou"].get<double>();
   };
   auto checkpoint = [&]() {
-    save_checkpoint(ckpt_path, net.module(), opt, st);
-    save_model_file((dir / "model.safetensors").string());
+    save_checkpoint(ckpt_path, net.module(), opt, st);  // the trained weights and the average
+    with_average([&] { save_model_file((dir / "model.safetensors").string()); });
   };
 
   if (!ro.resume && has_val) {  // the untrained network's score
     if (root) {
-      nlohmann::json v = validate();
+      nlohmann::json v = validate();  // step 0: the average is the weights themselves
       validate_full(v);
       log_line(v);
     }
@@ -788,6 +821,13 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     }
     if (c.clip > 0) torch::nn::utils::clip_grad_norm_(net.module().parameters(), c.clip);
     opt.step();
+    if (!st.ema.empty()) {
+      torch::NoGradGuard ng;
+      const double n = double(st.ema_updates);
+      const double d = std::min(c.ema_decay, (1 + n) / (10 + n));
+      for (size_t k = 0; k < params.size(); ++k) st.ema[k].mul_(d).add_(params[k].detach(), 1 - d);
+      ++st.ema_updates;
+    }
     ++st.step;
     ++steps_here;
     if (st.step == die_at) std::_Exit(3);
@@ -863,36 +903,38 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
       train_ws = WindowScores();
     }
     if (has_val && (st.step % c.val_every == 0 || st.step == c.steps)) {
-      if (root) {
-        nlohmann::json v = validate();
-        validate_full(v);
-        log_line(v);
-        if (val_score(v) > st.best_val_iou) {
-          st.best_val_iou = val_score(v);
-          st.best_step = st.step;
-          save_model_file((dir / "best.safetensors").string());
-        }
-        if (c.keep_val_models)
-          save_model_file((dir / ("val-step" + std::to_string(st.step) + ".safetensors")).string());
-        curves.write((dir / "curves.svg").string());
-        if (ro.progress) {
-          const std::string whole =
-              full_val
-                  ? ", whole sensor " + percent(v["full_iou"].get<double>()) +
-                        " %, event precision " + percent(v["full_event_precision"].get<double>()) +
-                        " % (base " + percent(v["full_event_base_rate"].get<double>()) + " %)"
-                  : "";
-          const std::string still = static_val ? ", static scenes " +
-                                                     percent(v["static_moving"].get<double>()) +
-                                                     " % called moving"
-                                               : "";
-          std::fprintf(
-              stderr, "%sval step %lld: IoU %s %%%s%s (best %s at %lld), detection %s %%\n",
-              isatty(2) ? "\n" : "", (long long)st.step, percent(v["iou"].get<double>()).c_str(),
-              whole.c_str(), still.c_str(), percent(st.best_val_iou).c_str(),
-              (long long)st.best_step, percent(v["detection_rate"].get<double>()).c_str());
-        }
-      }
+      if (root)
+        with_average([&] {
+          nlohmann::json v = validate();
+          validate_full(v);
+          log_line(v);
+          if (val_score(v) > st.best_val_iou) {
+            st.best_val_iou = val_score(v);
+            st.best_step = st.step;
+            save_model_file((dir / "best.safetensors").string());
+          }
+          if (c.keep_val_models)
+            save_model_file(
+                (dir / ("val-step" + std::to_string(st.step) + ".safetensors")).string());
+          curves.write((dir / "curves.svg").string());
+          if (ro.progress) {
+            const std::string whole =
+                full_val ? ", whole sensor " + percent(v["full_iou"].get<double>()) +
+                               " %, event precision " +
+                               percent(v["full_event_precision"].get<double>()) + " % (base " +
+                               percent(v["full_event_base_rate"].get<double>()) + " %)"
+                         : "";
+            const std::string still = static_val ? ", static scenes " +
+                                                       percent(v["static_moving"].get<double>()) +
+                                                       " % called moving"
+                                                 : "";
+            std::fprintf(
+                stderr, "%sval step %lld: IoU %s %%%s%s (best %s at %lld), detection %s %%\n",
+                isatty(2) ? "\n" : "", (long long)st.step, percent(v["iou"].get<double>()).c_str(),
+                whole.c_str(), still.c_str(), percent(st.best_val_iou).c_str(),
+                (long long)st.best_step, percent(v["detection_rate"].get<double>()).c_str());
+          }
+        });
       const std::string key = "val/" + std::to_string(st.step);
       dist.root_done(key);
       dist.wait_for_root(key);

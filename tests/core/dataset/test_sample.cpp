@@ -284,6 +284,49 @@ TEST(BatchLoader, ShardsAreSlicesOfTheGlobalBatch) {
   }
 }
 
+// Whole-sensor batches of sequences from two sensor sizes hold one size each; each sequence
+// keeps the share of samples its weight gives; a rank's shard is still its slice of the
+// global batch; crops (any size fits) and validation sets mix, the latter ordered by size.
+TEST(BatchLoader, WholeSensorBatchesHoldOneSensorSize) {
+  LabelledSequence big = synthetic(), small = synthetic(), big2 = synthetic();
+  small.events.sensor = {80, 48};  // every event of synthetic() fits 80 x 48 too
+  std::vector<const LabelledSequence*> seqs{&big, &small, &big2};
+  const std::vector<double> w{0.5, 0.3, 0.2};
+  SampleOptions o = plain();
+  o.crop = 0;
+  std::vector<double> share(3, 0);
+  const int steps = 400;
+  for (int64_t step = 0; step < steps; ++step) {
+    Batch b = BatchLoader::make(seqs, w, o, 4, 7, step);
+    ASSERT_EQ(b.samples.size(), 4u);
+    for (const Sample& x : b.samples) {
+      EXPECT_EQ(x.W, b.samples[0].W) << "step " << step;
+      EXPECT_EQ(x.H, b.samples[0].H) << "step " << step;
+      // Which sequence: the small one by its size; the two big ones share 100 x 80.
+      share[x.W == 80 ? 1 : 0] += 1.0 / (4 * steps);
+    }
+    if (step < 5) {  // shard = slice
+      Batch shard = BatchLoader::make(seqs, w, o, 2, 7, step, 2);
+      for (size_t j = 0; j < 2; ++j) EXPECT_EQ(shard.samples[j].input, b.samples[2 + j].input);
+    }
+  }
+  // 1,600 samples in 400 groups of 4 (sd of a group share ~ sqrt(.21 / 400) = 0.023).
+  EXPECT_NEAR(share[1], 0.3, 0.08);
+  EXPECT_NEAR(share[0], 0.7, 0.08);
+  // Crops fit both sensors: batches mix them.
+  o.crop = 32;
+  for (int64_t step = 0; step < 50; ++step) {
+    Batch b = BatchLoader::make(seqs, w, o, 4, 7, step);
+    for (const Sample& x : b.samples) EXPECT_EQ(x.W, 32);
+  }
+  // Validation: ordered by size.
+  o.crop = 0;
+  const auto val = validation_samples(seqs, o, 30, 3);
+  int changes = 0;
+  for (size_t i = 1; i < val.size(); ++i) changes += val[i].W != val[i - 1].W;
+  EXPECT_EQ(changes, 1);
+}
+
 TEST(Dataset, LoadsASimulatorStyleFolderBySplitAndRefusesUnlabelledData) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / "spikems_dataset_test";
