@@ -7,6 +7,7 @@
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <chrono>
@@ -15,6 +16,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <sstream>
 #include <thread>
 
 #include "common/test_paths.h"
@@ -462,6 +464,18 @@ TEST(Trainer, TimeLimitStopsWithACheckpointAndResumeFinishes) {
   EXPECT_EQ(runs.back()["event"], "time_limit");
   EXPECT_EQ(runs.back()["step"], 1);
 
+  // The log gzipped meanwhile (as the repository keeps long logs): the resume unpacks it and
+  // continues the whole log.
+  {
+    std::ifstream f(dir + "/log.jsonl");
+    std::stringstream text;
+    text << f.rdbuf();
+    gzFile g = gzopen((dir + "/log.jsonl.gz").c_str(), "wb");
+    ASSERT_TRUE(g);
+    ASSERT_EQ(gzwrite(g, text.str().data(), unsigned(text.str().size())), int(text.str().size()));
+    gzclose(g);
+    fs::remove(dir + "/log.jsonl");
+  }
   ro.resume = true;
   ro.time_limit_s = 0;
   r = run_training(load_run_config(dir, {}), ro);
@@ -470,7 +484,9 @@ TEST(Trainer, TimeLimitStopsWithACheckpointAndResumeFinishes) {
   auto train = read_log(dir, "train");
   ASSERT_EQ(train.size(), 12u);
   for (size_t i = 0; i < train.size(); ++i) EXPECT_EQ(train[i]["step"], int(i + 1));
+  EXPECT_EQ(read_log(dir, "run").front()["event"], "start");
   EXPECT_EQ(read_log(dir, "run").back()["event"], "done");
+  EXPECT_FALSE(fs::exists(dir + "/log.jsonl.gz"));
 
   // The command line refuses a duration that is not one, naming the flag.
   std::string out;

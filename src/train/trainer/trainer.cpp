@@ -1,6 +1,7 @@
 #include "train/trainer/trainer.h"
 
 #include <unistd.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <chrono>
@@ -286,9 +287,34 @@ struct Curves {
 };
 
 // Keeps the log lines of steps up to `step` (a resumed run rewrites what followed).
+// The whole text of a gzipped file (zlib's gz reader); throws Error naming it when unreadable.
+std::string read_gzip(const std::string& path) {
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (!f) fail(path, "", "cannot open the gzipped log");
+  std::string out;
+  char buf[1 << 16];
+  int n;
+  while ((n = gzread(f, buf, sizeof buf)) > 0) out.append(buf, size_t(n));
+  const bool bad = n < 0;
+  gzclose(f);
+  if (bad) fail(path, "", "the gzipped log is damaged (gunzip it by hand, then --resume)");
+  return out;
+}
+
+// Keeps the log's lines up to `step` (a resume repeats the steps after its checkpoint). A log
+// kept gzipped (log.jsonl.gz, as the repository keeps long logs) is unpacked into log.jsonl
+// first, so that the resumed run continues the whole log and its curves.
 Curves trim_log(const std::string& path, int64_t step) {
   Curves cv;
-  std::ifstream in(path);
+  std::error_code ec;
+  const std::string gz = path + ".gz";
+  std::stringstream in;
+  if (!fs::exists(path) && fs::exists(gz)) {
+    in << read_gzip(gz);
+  } else {
+    std::ifstream f(path);
+    in << f.rdbuf();
+  }
   std::string line, kept;
   while (std::getline(in, line)) {
     if (line.empty()) continue;
@@ -303,6 +329,7 @@ Curves trim_log(const std::string& path, int64_t step) {
     kept += line + "\n";
   }
   write_file_atomic(path, kept);
+  if (fs::exists(gz)) fs::remove(gz, ec);  // its lines are in `path` now
   return cv;
 }
 
