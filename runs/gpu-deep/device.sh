@@ -19,8 +19,9 @@
 # held-out rooms and the real poster).
 # STATIC=N: also N static rooms and N static posters with flat patches (20 % of the samples)
 # and a static validation set (data.val_static); see static_sets below.
-# STATIC_A / STATIC_B: the static rooms' / posters' configs (default runs/flat23/modstatic-flat.toml
-# / runs/flat23/poster-flat.toml; runs/sizes24/*-sizes.toml: two cameras per set).
+# STATIC_A / STATIC_B / VAL_STATIC: the static rooms' / posters' / static validation posters'
+# configs (default runs/flat23/modstatic-flat.toml / poster-flat.toml / poster-flat.toml;
+# runs/sizes24/*-sizes.toml: two cameras per set).
 # SIM_A / SIM_B: the simulator's scene arguments for chunk a / b (default `--preset mod`; e.g.
 # SIM_A="--config runs/flat23/mod-flat.toml": the same rooms as SEED_A's with flat patches;
 # runs/sizes24/mod-flat-sizes.toml: the same with a camera drawn per room).
@@ -92,7 +93,7 @@ static_sets() {
   sim gpu-static-a "$STATIC" 1s 95 "--config ${STATIC_A:-runs/flat23/modstatic-flat.toml}" &&
     sim gpu-static-b "$STATIC" 0.5s 97 "--config ${STATIC_B:-runs/flat23/poster-flat.toml}"
 }
-(sim mod2-val 8 1s 3001 && { [ -z "${STATIC:-}" ] || sim val-static 8 0.5s 601 "--config runs/flat23/poster-flat.toml"; } &&
+(sim mod2-val 8 1s 3001 && { [ -z "${STATIC:-}" ] || sim val-static 8 0.5s 601 "--config ${VAL_STATIC:-runs/flat23/poster-flat.toml}"; } &&
   sim gpu-train-a "$ROOMS" "$ROOM_S" "$SEED_A" "${SIM_A:-}" &&
   sim gpu-train-b "$ROOMS" "$ROOM_S" "$SEED_B" "${SIM_B:-}" && static_sets) &
 SPID=$!
