@@ -667,7 +667,15 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     eo.max_seconds = c.val_full_s;
     eo.gate_events = c.gate_events;
     eo.static_scene = static_scene;
-    return WindowSummary(evaluate(eo).models.at(0).datasets.at(0).windows.at(0));
+    const auto r = evaluate(eo);
+    // Ctrl-C stops the evaluation too, leaving no rows: say so rather than index nothing.
+    if (r.models.empty() || r.models[0].datasets.empty() || r.models[0].datasets[0].windows.empty())
+      fail(dir.string(), "step " + std::to_string(st.step),
+           "whole-sensor validation interrupted; the last checkpoint (step " +
+               std::to_string(
+                   std::max<int64_t>(0, (st.step - 1) - (st.step - 1) % c.checkpoint_every)) +
+               ") is kept: continue with spikems train --resume " + dir.string());
+    return WindowSummary(r.models[0].datasets[0].windows[0]);
   };
   auto validate_full = [&](nlohmann::json& v) {
     if (!full_val && !static_val) return;
@@ -828,7 +836,8 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
       fail(ro.out_dir, "step " + std::to_string(st.step + 1),
            "the loss is " + std::string(std::isnan(loss) ? "NaN" : "infinite") +
                "; stopped. The last good checkpoint (step " +
-               std::to_string(st.step - st.step % c.checkpoint_every) +
+               std::to_string(
+                   std::max<int64_t>(0, (st.step - 1) - (st.step - 1) % c.checkpoint_every)) +
                ") is kept: lower optim.lr or raise optim.clip, "
                "then --resume");
     o.total.backward();
