@@ -18,8 +18,9 @@ namespace fs = std::filesystem;
 
 struct Args {
   std::string model, out, split = "val", factors, gates, window = "20", criterion = "event-iou";
-  std::vector<std::string> data;
-  double max_seconds = 0;
+  std::vector<std::string> data, static_data;
+  double max_seconds = 0, max_static_moving = 5;
+  bool budget_given = false;
   int threads = 1;
   bool quiet = false;
 };
@@ -37,6 +38,12 @@ void run(const Args& a) {
   if (w.size() != 1) fail("--window", "", "give one window length (ms), e.g. 20");
   o.window_us = w[0];
   o.criterion = a.criterion;
+  if (a.budget_given && a.static_data.empty())
+    fail("--max-static-moving", "",
+         "is a budget on static scenes: give them with --static (e.g. a simulated `poster` "
+         "folder)");
+  o.static_data = a.static_data;
+  o.max_static_moving = a.max_static_moving;
   if (a.max_seconds < 0) fail("--max-seconds", "", "must be positive");
   o.max_seconds = a.max_seconds;
   o.threads = a.threads;
@@ -49,10 +56,15 @@ void run(const Args& a) {
   save_model(a.out, calibrated_model(o, r));
   std::fputs(calibration_table(o, r).c_str(), stdout);
   std::fflush(stdout);
-  if (!a.quiet)
-    std::fprintf(stderr, "wrote %s: output threshold x %g, output gate %g ms (%s %.1f %%)\n",
-                 a.out.c_str(), r.points[r.best].factor, r.points[r.best].gate_ms,
-                 o.criterion.c_str(), r.points[r.best].score);
+  if (!a.quiet) {
+    const CalibrationPoint& b = r.points[r.best];
+    std::fprintf(stderr, "wrote %s: output threshold x %g, output gate %g ms (%s %.1f %%",
+                 a.out.c_str(), b.factor, b.gate_ms, o.criterion.c_str(), b.score);
+    if (!o.static_data.empty())
+      std::fprintf(stderr, "; static scenes called moving %.1f %% of at most %g %%",
+                   b.static_moving, o.max_static_moving);
+    std::fputs(")\n", stderr);
+  }
 }
 
 void add(CLI::App& app) {
@@ -65,15 +77,19 @@ void add(CLI::App& app) {
       "nearest 1) and the model is written with that threshold, the choice and the per-factor "
       "table in its metadata (training.calibration). Calibrate on validation data, never on "
       "the data you report. With --gates, each output gate (docs/model-format.md, \"Output "
-      "gate\") is tried with every factor and the best pair kept. See docs/evaluation.md, "
-      "\"Operating points\".\n\n"
+      "gate\") is tried with every factor and the best pair kept. With --static, scenes where "
+      "nothing moves are scored at every point too, and only points that call at most "
+      "--max-static-moving % of their events moving compete: an operating point with a budget "
+      "of false calls on camera motion. See docs/evaluation.md, \"Operating points\".\n\n"
       "Examples:\n"
       "  spikems calibrate --model runs/x/best.safetensors --data data/mod-val --split all "
       "--out runs/x/calibrated.safetensors\n"
       "  spikems calibrate --model m.safetensors --data data/mod --factors 1,1.1,1.2 "
       "--criterion iou --window 20 --max-seconds 1 --out m-cal.safetensors\n"
       "  spikems calibrate --model m.safetensors --data data/mod-val --split all --factors 1 "
-      "--gates 0,6,10,20 --criterion iou --out m-gated.safetensors");
+      "--gates 0,6,10,20 --criterion iou --out m-gated.safetensors\n"
+      "  spikems calibrate --model m.safetensors --data data/mod-val --split all --static "
+      "data/poster-val --max-static-moving 5 --out m-cal.safetensors");
   cmd->add_option("--model", a.model, "The model file to calibrate")->required();
   cmd->add_option("--data", a.data,
                   "Labelled validation data: simulator folders or recordings (repeat for more)")
@@ -93,6 +109,15 @@ void add(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--window", a.window, "Window length in ms for the scores")
       ->capture_default_str();
+  cmd->add_option("--static", a.static_data,
+                  "Static scenes (every event background: simulator folders, all their "
+                  "sequences, or recordings; repeat for more): each point's share of their "
+                  "events called moving is measured and limited by --max-static-moving");
+  cmd->add_option("--max-static-moving", a.max_static_moving,
+                  "With --static: the most of the static scenes' events a chosen point may call "
+                  "moving, percent")
+      ->capture_default_str()
+      ->each([](const std::string&) { a.budget_given = true; });
   cmd->add_option("--out", a.out, "Where to write the calibrated model (a new file)")->required();
   cmd->add_option("--max-seconds", a.max_seconds,
                   "Score only the first S seconds of each sequence");

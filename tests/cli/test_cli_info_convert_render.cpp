@@ -154,7 +154,9 @@ TEST(CliInfoConvertRender, InfoDescribesAModelFile) {
                   {"output_threshold_scale", 1.5},
                   {"criterion", "iou"},
                   {"score", 31.25},
-                  {"data", {"data/val"}}}}};
+                  {"data", {"data/val"}},
+                  {"static_moving", 2.5},
+                  {"max_static_moving", 5}}}};
   const std::string path = dir + "/m.safetensors";
   save_model(path, m);
   std::string out;
@@ -162,7 +164,8 @@ TEST(CliInfoConvertRender, InfoDescribesAModelFile) {
   for (const char* want :
        {"\"tiny-unet\", spiking network, 6 layers", "after 2 (through the skips) to 6 steps",
         "any sensor size", "2 -> 4, 6, 8, 6, 4(+2), 2(+1)", "output gate   6 ms (3 steps)",
-        "θ x 1.5, by iou 31.2 % on data/val", "training      40 steps, 12 s"})
+        "θ x 1.5, by iou 31.2 % on data/val, static scenes 2.5 % called moving (at most 5 %)",
+        "training      40 steps, 12 s"})
     EXPECT_NE(out.find(want), std::string::npos) << want << "\n" << out;
   ASSERT_EQ(run_command(spikems_binary() + " info --json " + q(path), &out), 0) << out;
   const auto j = nlohmann::json::parse(out).at(0);

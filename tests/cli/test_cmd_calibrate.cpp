@@ -144,6 +144,78 @@ TEST(CalibrateCli, GatesAreTriedWithEveryFactorAndTheBestPairKept) {
   EXPECT_EQ(load_model(d + "/again.safetensors").output_gate_steps, 5);
 }
 
+// --static with --max-static-moving: a budget of false calls on scenes where nothing moves.
+// Here both polarities move (factors 1 and 2 label both: event IoU 100 %; 3 and 4 the OFF
+// events only: 50 %; 5 none), and the static scene holds ON events alone, which factors 1 and 2
+// call moving (100 %) and 3-5 do not (0 %). Without the budget factor 1 wins; with 5 % only
+// 3-5 may be chosen and 3 is kept. A budget no factor meets is refused, naming the lowest.
+TEST(CalibrateCli, StaticScenesBudgetLimitsTheChoice) {
+  const LinesCase lc;
+  const std::string& d = lc.dir;
+  const std::string moving = d + "/both_moving.txt", still = d + "/still_on.txt";
+  {
+    std::ofstream f(moving), g(still);
+    f << "# sensor 48 16\n";
+    g << "# sensor 48 16\n";
+    for (int t = 0; t < 40; ++t) {
+      f << t * 1000 + 100 << " " << t << " 2 0 1\n";
+      f << t * 1000 + 200 << " " << t << " 10 1 1\n";
+      g << t * 1000 + 200 << " " << t << " 10 1 0\n";
+    }
+  }
+  const std::string base = spikems_binary() + " calibrate --quiet --model " + lc.model +
+                           " --data " + moving + " --window 10 ";
+  const std::string all = "--factors 1,2,3,4,5 ";
+  std::string out;
+  ASSERT_EQ(run_command(base + all + "--out " + d + "/free.safetensors", &out), 0) << out;
+  EXPECT_NE(out.find("| 1 | "), std::string::npos) << out;
+  EXPECT_NE(out.find(" | 100.0 | 100.0 | 100.0 | 100.0 | chosen (event-iou) |"), std::string::npos)
+      << out;
+  EXPECT_EQ(load_model(d + "/free.safetensors").training.at("calibration").at("factor"), 1.0);
+
+  const std::string cal = d + "/budget.safetensors";
+  ASSERT_EQ(
+      run_command(base + all + "--static " + still + " --max-static-moving 5 --out " + cal, &out),
+      0)
+      << out;
+  EXPECT_NE(out.find("| event R % | moving % | static moving % | |"), std::string::npos) << out;
+  auto tail = [&](const std::string& factor) {  // the moving, static and choice columns
+    const size_t at = out.find("\n| " + factor + " | ");
+    if (at == std::string::npos) return std::string("no row");
+    const std::string line = out.substr(at + 1, out.find('\n', at + 1) - at - 1);
+    size_t p = 0;
+    for (int i = 0; i < 5; ++i) p = line.find(" | ", p) + 3;
+    return line.substr(p - 3);
+  };
+  EXPECT_EQ(tail("1"), " | 100.0 | 100.0 (over) |  |") << out;
+  EXPECT_EQ(tail("2"), " | 100.0 | 100.0 (over) |  |") << out;
+  EXPECT_EQ(tail("3"), " | 50.0 | 0.0 | chosen (event-iou) |") << out;
+  EXPECT_EQ(tail("5"), " | 0.0 | 0.0 |  |") << out;
+  const ModelSpec m = load_model(cal), b = load_model(lc.model);
+  EXPECT_FLOAT_EQ(m.layers[0].neuron.theta, 3 * b.layers[0].neuron.theta);
+  const auto& c = m.training.at("calibration");
+  EXPECT_EQ(c.at("factor").get<double>(), 3.0);
+  EXPECT_EQ(c.at("max_static_moving").get<double>(), 5.0);
+  EXPECT_EQ(c.at("static_moving").get<double>(), 0.0);
+  EXPECT_EQ(c.at("static_data").at(0), still);
+  ASSERT_EQ(c.at("points").size(), 5u);
+  EXPECT_EQ(c.at("points")[0].at("static_moving").get<double>(), 100.0);
+
+  const std::string o = d + "/never.safetensors";
+  EXPECT_NE(run_command(base + "--factors 1,2 --static " + still + " --out " + o, &out), 0);
+  EXPECT_NE(
+      out.find("no factor calls at most 5 % of the static scenes moving (the lowest: 100.0 %"),
+      std::string::npos)
+      << out;
+  EXPECT_NE(run_command(base + all + "--max-static-moving 5 --out " + o, &out), 0);
+  EXPECT_NE(out.find("give them with --static"), std::string::npos) << out;
+  EXPECT_NE(
+      run_command(base + all + "--static " + still + " --max-static-moving 150 --out " + o, &out),
+      0);
+  EXPECT_NE(out.find("between 0 and 100"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(o));
+}
+
 TEST(CalibrateCli, BadInputStopsWithAClearMessageAndWritesNothing) {
   const std::string d = scratch_dir();
   const std::string model = d + "/m.safetensors", data = write_lines(d);

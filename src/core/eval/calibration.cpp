@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 
 #include "core/eval/results.h"
 #include "core/model/output_threshold.h"
@@ -15,6 +16,8 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
   if (opt.criterion != "event-iou" && opt.criterion != "iou")
     fail("--criterion", "", "'" + opt.criterion + "' is not a criterion: use event-iou or iou");
   if (opt.factors.empty()) fail("--factors", "", "no factor to try");
+  if (!(opt.max_static_moving >= 0 && opt.max_static_moving <= 100))
+    fail("--max-static-moving", "", "must be a percentage between 0 and 100");
   std::vector<double> factors = opt.factors;
   std::sort(factors.begin(), factors.end());
   EvalOptions e;
@@ -58,15 +61,54 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
     p.score = opt.criterion == "iou" ? p.iou : p.event_iou;
     r.points.push_back(p);
   }
-  for (size_t i = 1; i < r.points.size(); ++i) {
-    const CalibrationPoint &a = r.points[i], &b = r.points[r.best];
+  if (!opt.static_data.empty()) {
+    // The same factors and gates (so the same point order) on scenes where nothing moves:
+    // whatever is called moving there is a false call.
+    e.data = opt.static_data;
+    e.split = "all";
+    e.static_scene = true;
+    r.static_eval = evaluate(e);
+    if (r.static_eval.interrupted) fail("spikems calibrate", "", "interrupted: no model written");
+    if (r.static_eval.models.size() != r.points.size())
+      fail("spikems calibrate", "", "internal error: static scenes scored at other points");
+    for (size_t i = 0; i < r.points.size(); ++i) {
+      EventCounts calls;
+      for (const DatasetResult& d : r.static_eval.models[i].datasets)
+        if (d.windows.at(0).has_events) calls += d.windows.at(0).events;
+      if (calls.total() == 0)
+        fail("--static", "", "the static scenes have no event in a whole window: give longer ones");
+      CalibrationPoint& p = r.points[i];
+      p.static_moving = 100 * calls.moving_share();
+      p.eligible = p.static_moving <= opt.max_static_moving + 1e-9;
+    }
+  }
+  std::optional<size_t> best;
+  for (size_t i = 0; i < r.points.size(); ++i) {
+    if (!r.points[i].eligible) continue;
+    if (!best) {
+      best = i;
+      continue;
+    }
+    const CalibrationPoint &a = r.points[i], &b = r.points[*best];
     // Ties (within rounding): the factor nearer 1, then the shorter gate.
     const double la = std::abs(std::log(a.factor)), lb = std::abs(std::log(b.factor));
     const bool better = a.score > b.score + 1e-9 ||
                         (a.score >= b.score - 1e-9 &&
                          (la < lb - 1e-12 || (la <= lb + 1e-12 && a.gate_steps < b.gate_steps)));
-    if (better) r.best = i;
+    if (better) best = i;
   }
+  if (!best) {
+    const auto low = std::min_element(r.points.begin(), r.points.end(),
+                                      [](const CalibrationPoint& a, const CalibrationPoint& b) {
+                                        return a.static_moving < b.static_moving;
+                                      });
+    fail("--max-static-moving", "",
+         "no factor calls at most " + fmt("%g", opt.max_static_moving) +
+             " % of the static scenes moving (the lowest: " + fmt("%.1f", low->static_moving) +
+             " % at factor " + fmt("%g", low->factor) + ", gate " + fmt("%g", low->gate_ms) +
+             " ms): try larger --factors, a gate (--gates) or a higher budget");
+  }
+  r.best = *best;
   return r;
 }
 
@@ -91,6 +133,9 @@ ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResul
                      {"event_recall", p.recall},
                      {"moving_share", p.moving},
                      {"windows", p.windows}});
+  if (!opt.static_data.empty())
+    for (size_t i = 0; i < r.points.size(); ++i)
+      table[i]["static_moving"] = r.points[i].static_moving;
   if (!m.training.is_object()) m.training = nlohmann::json::object();
   m.training["calibration"] = {{"factor", best.factor},
                                {"output_threshold_scale", before * best.factor},
@@ -105,23 +150,31 @@ ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResul
                                {"command", opt.command_line},
                                {"date", r.eval.date},
                                {"source_model", opt.model}};
+  if (!opt.static_data.empty()) {
+    m.training["calibration"]["static_data"] = opt.static_data;
+    m.training["calibration"]["max_static_moving"] = opt.max_static_moving;
+    m.training["calibration"]["static_moving"] = best.static_moving;
+  }
   if (!previous.is_null()) m.training["calibration"]["previous"] = std::move(previous);
   return m;
 }
 
 std::string calibration_table(const CalibrationOptions& opt, const CalibrationResult& r) {
-  const bool gates = !opt.gates_us.empty();
+  const bool gates = !opt.gates_us.empty(), statics = !opt.static_data.empty();
   std::string out = std::string("| factor |") + (gates ? " gate ms |" : "") + " IoU % (" +
                     fmt("%g", double(opt.window_us) / 1000.0) +
-                    " ms) | event IoU % | event P % | event R % | moving % | |\n";
-  out += gates ? "|---|---|---|---|---|---|---|---|\n" : "|---|---|---|---|---|---|---|\n";
+                    " ms) | event IoU % | event P % | event R % | moving % |" +
+                    (statics ? " static moving % |" : "") + " |\n";
+  out += "|---|---|---|---|---|---|---|";
+  out += std::string(gates ? "---|" : "") + (statics ? "---|" : "") + "\n";
   for (size_t i = 0; i < r.points.size(); ++i) {
     const CalibrationPoint& p = r.points[i];
     out += "| " + fmt("%g", p.factor) + " | " + (gates ? fmt("%g", p.gate_ms) + " | " : "") +
            fmt("%.1f", p.iou) + " | " + fmt("%.1f", p.event_iou) + " | " +
            fmt("%.1f", p.precision) + " | " + fmt("%.1f", p.recall) + " | " +
-           fmt("%.1f", p.moving) + " | " + (i == r.best ? "chosen (" + opt.criterion + ")" : "") +
-           " |\n";
+           fmt("%.1f", p.moving) + " | " +
+           (statics ? fmt("%.1f", p.static_moving) + (p.eligible ? "" : " (over)") + " | " : "") +
+           (i == r.best ? "chosen (" + opt.criterion + ")" : "") + " |\n";
   }
   return out;
 }

@@ -23,6 +23,11 @@ struct CalibrationOptions {
   // "event-iou": TP / (TP + FP + FN) over the events of all whole windows (the per-event view
   // `spikems segment` gives; monotone in the event F1); "iou": BRIEF.md's mean window IoU.
   std::string criterion = "event-iou";
+  // Static scenes (every event background; simulator folders scored whole, or recordings): each
+  // point's share of their events called moving is measured, and only points at or below
+  // max_static_moving (percent) may be chosen. Empty = no budget.
+  std::vector<std::string> static_data;
+  double max_static_moving = 5;
   double max_seconds = 0;
   int threads = 1;
   bool progress = false;
@@ -36,19 +41,24 @@ struct CalibrationPoint {
   double score = 0;  // the criterion, percent (0-100)
   double iou = 0, event_iou = 0, precision = 0, recall = 0, moving = 0;  // percent
   size_t windows = 0;
+  double static_moving = -1;  // percent of the static scenes' events called moving; -1 = none
+  bool eligible = true;       // within max_static_moving (always, without static scenes)
 };
 
 struct CalibrationResult {
   std::vector<CalibrationPoint> points;  // by gate, then factor
   size_t best = 0;                       // index into points
   EvalResults eval;                      // the scoring behind them
+  EvalResults static_eval;               // the static scenes' (empty without them)
 };
 
 // Scores the model at every factor (and gate) and picks the best by the criterion; ties (within
 // 1e-9) go to the factor nearest 1 (in ratio), then to the shorter gate, so a flat curve leaves
-// the model as it is. Throws
+// the model as it is. With static scenes, only the points calling at most max_static_moving %
+// of their events moving compete. Throws
 // Error for an unknown criterion, an empty factor list, data without labels or without a
-// scored window (errors of evaluate() included), or an interrupted run.
+// scored window (errors of evaluate() included), a budget outside 0-100 or that no point
+// meets (naming the lowest share and what to try), or an interrupted run.
 CalibrationResult calibrate(const CalibrationOptions& opt);
 
 // The model with the chosen factor (and gate, when gates were swept) applied and

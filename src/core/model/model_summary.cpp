@@ -69,8 +69,8 @@ nlohmann::json model_summary(const ModelSpec& m) {
   const nlohmann::json c = at_path(m.training, {"calibration"});
   if (c.is_object()) {
     nlohmann::json cj;
-    for (const char* k :
-         {"factor", "output_threshold_scale", "output_gate_ms", "criterion", "score", "data"})
+    for (const char* k : {"factor", "output_threshold_scale", "output_gate_ms", "criterion",
+                          "score", "data", "static_moving", "max_static_moving"})
       if (c.contains(k)) cj[k] = c[k];
     j["calibration"] = std::move(cj);
   }
@@ -133,6 +133,9 @@ std::string model_summary_text(const std::string& path, const ModelSpec& m) {
     if (c.contains("score")) v += fmt(" %.1f %%", c["score"].get<double>());
     if (c.contains("data") && c["data"].is_array() && !c["data"].empty())
       v += " on " + c["data"][0].get<std::string>();
+    if (c.contains("static_moving") && c.contains("max_static_moving"))
+      v += fmt(", static scenes %.1f %% called moving", c["static_moving"].get<double>()) +
+           fmt(" (at most %g %%)", c["max_static_moving"].get<double>());
     line("calibration", v);
   }
   if (j.contains("training")) {
