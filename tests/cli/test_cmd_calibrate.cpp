@@ -32,6 +32,17 @@ std::string write_lines(const std::string& dir, bool labelled_moving = true) {
   return p;
 }
 
+// The row of a printed calibration table that starts with `key` ("3", or "3 | 5" with
+// gates), from its `skip`-th cell separator on ("no row" when absent).
+std::string row_from(const std::string& out, const std::string& key, int skip) {
+  const size_t at = out.find("\n| " + key + " | ");
+  if (at == std::string::npos) return "no row";
+  const std::string line = out.substr(at + 1, out.find('\n', at + 1) - at - 1);
+  size_t p = 0;
+  for (int i = 0; i < skip; ++i) p = line.find(" | ", p) + 3;
+  return line.substr(p - 3);
+}
+
 // The analytic case in a scratch folder: the model (OFF weight 1, ON 0.5) and the lines.
 struct LinesCase {
   std::string dir = scratch_dir(), model = dir + "/m.safetensors", data = write_lines(dir);
@@ -52,12 +63,7 @@ TEST(CalibrateCli, KeepsTheFactorWithTheBestEventIoUAndRecordsIt) {
   ASSERT_EQ(lc.calibrate("--factors 1,2,3,4,5 --window 10 --out " + cal, out), 0) << out;
   // The event columns (event IoU, P, R, moving) of each factor's row; the window IoU column
   // is left out (the output lags a step or two, so some spikes count in the next window).
-  auto row = [&](const std::string& factor) {
-    const size_t at = out.find("\n| " + factor + " | ");
-    if (at == std::string::npos) return std::string("no row");
-    const std::string line = out.substr(at + 1, out.find('\n', at + 1) - at - 1);
-    return line.substr(line.find(" | ", line.find(" | ") + 3));  // from the event IoU on
-  };
+  auto row = [&](const std::string& factor) { return row_from(out, factor, 2); };
   EXPECT_EQ(row("1"), " | 50.0 | 50.0 | 100.0 | 100.0 |  |") << out;
   EXPECT_EQ(row("2"), " | 50.0 | 50.0 | 100.0 | 100.0 |  |") << out;
   EXPECT_EQ(row("3"), " | 100.0 | 100.0 | 100.0 | 50.0 | chosen (event-iou) |") << out;
@@ -111,12 +117,7 @@ TEST(CalibrateCli, GatesAreTriedWithEveryFactorAndTheBestPairKept) {
   const std::string cal = d + "/cal.safetensors";
   ASSERT_EQ(lc.calibrate("--factors 1,3 --gates 5,1 --window 10 --out " + cal, out), 0) << out;
   auto row = [&](const std::string& factor_gate) {  // from the event IoU on
-    const size_t at = out.find("\n| " + factor_gate + " | ");
-    if (at == std::string::npos) return std::string("no row");
-    const std::string line = out.substr(at + 1, out.find('\n', at + 1) - at - 1);
-    size_t p = 0;
-    for (int i = 0; i < 3; ++i) p = line.find(" | ", p) + 3;
-    return line.substr(p - 3);
+    return row_from(out, factor_gate, 3);
   };
   EXPECT_NE(out.find("| factor | gate ms |"), std::string::npos) << out;
   EXPECT_EQ(row("1 | 1"), " | 0.0 | 0.0 | 0.0 | 0.0 |  |") << out;
@@ -180,12 +181,7 @@ TEST(CalibrateCli, StaticScenesBudgetLimitsTheChoice) {
       << out;
   EXPECT_NE(out.find("| event R % | moving % | static moving % | |"), std::string::npos) << out;
   auto tail = [&](const std::string& factor) {  // the moving, static and choice columns
-    const size_t at = out.find("\n| " + factor + " | ");
-    if (at == std::string::npos) return std::string("no row");
-    const std::string line = out.substr(at + 1, out.find('\n', at + 1) - at - 1);
-    size_t p = 0;
-    for (int i = 0; i < 5; ++i) p = line.find(" | ", p) + 3;
-    return line.substr(p - 3);
+    return row_from(out, factor, 5);
   };
   EXPECT_EQ(tail("1"), " | 100.0 | 100.0 (over) |  |") << out;
   EXPECT_EQ(tail("2"), " | 100.0 | 100.0 (over) |  |") << out;

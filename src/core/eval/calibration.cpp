@@ -12,6 +12,13 @@
 
 namespace spikems {
 
+namespace {
+// A point may be chosen: no static scenes were given, or it stays within their budget.
+bool within_budget(const CalibrationOptions& opt, const CalibrationPoint& p) {
+  return opt.static_data.empty() || p.static_moving <= opt.max_static_moving + 1e-9;
+}
+}  // namespace
+
 CalibrationResult calibrate(const CalibrationOptions& opt) {
   if (opt.criterion != "event-iou" && opt.criterion != "iou")
     fail("--criterion", "", "'" + opt.criterion + "' is not a criterion: use event-iou or iou");
@@ -67,24 +74,22 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
     e.data = opt.static_data;
     e.split = "all";
     e.static_scene = true;
-    r.static_eval = evaluate(e);
-    if (r.static_eval.interrupted) fail("spikems calibrate", "", "interrupted: no model written");
-    if (r.static_eval.models.size() != r.points.size())
+    const EvalResults still = evaluate(e);
+    if (still.interrupted) fail("spikems calibrate", "", "interrupted: no model written");
+    if (still.models.size() != r.points.size())
       fail("spikems calibrate", "", "internal error: static scenes scored at other points");
     for (size_t i = 0; i < r.points.size(); ++i) {
       EventCounts calls;
-      for (const DatasetResult& d : r.static_eval.models[i].datasets)
+      for (const DatasetResult& d : still.models[i].datasets)
         if (d.windows.at(0).has_events) calls += d.windows.at(0).events;
       if (calls.total() == 0)
         fail("--static", "", "the static scenes have no event in a whole window: give longer ones");
-      CalibrationPoint& p = r.points[i];
-      p.static_moving = 100 * calls.moving_share();
-      p.eligible = p.static_moving <= opt.max_static_moving + 1e-9;
+      r.points[i].static_moving = 100 * calls.moving_share();
     }
   }
   std::optional<size_t> best;
   for (size_t i = 0; i < r.points.size(); ++i) {
-    if (!r.points[i].eligible) continue;
+    if (!within_budget(opt, r.points[i])) continue;
     if (!best) {
       best = i;
       continue;
@@ -169,12 +174,13 @@ std::string calibration_table(const CalibrationOptions& opt, const CalibrationRe
   out += std::string(gates ? "---|" : "") + (statics ? "---|" : "") + "\n";
   for (size_t i = 0; i < r.points.size(); ++i) {
     const CalibrationPoint& p = r.points[i];
-    out += "| " + fmt("%g", p.factor) + " | " + (gates ? fmt("%g", p.gate_ms) + " | " : "") +
-           fmt("%.1f", p.iou) + " | " + fmt("%.1f", p.event_iou) + " | " +
-           fmt("%.1f", p.precision) + " | " + fmt("%.1f", p.recall) + " | " +
-           fmt("%.1f", p.moving) + " | " +
-           (statics ? fmt("%.1f", p.static_moving) + (p.eligible ? "" : " (over)") + " | " : "") +
-           (i == r.best ? "chosen (" + opt.criterion + ")" : "") + " |\n";
+    out +=
+        "| " + fmt("%g", p.factor) + " | " + (gates ? fmt("%g", p.gate_ms) + " | " : "") +
+        fmt("%.1f", p.iou) + " | " + fmt("%.1f", p.event_iou) + " | " + fmt("%.1f", p.precision) +
+        " | " + fmt("%.1f", p.recall) + " | " + fmt("%.1f", p.moving) + " | " +
+        (statics ? fmt("%.1f", p.static_moving) + (within_budget(opt, p) ? "" : " (over)") + " | "
+                 : "") +
+        (i == r.best ? "chosen (" + opt.criterion + ")" : "") + " |\n";
   }
   return out;
 }

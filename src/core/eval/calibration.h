@@ -42,14 +42,12 @@ struct CalibrationPoint {
   double iou = 0, event_iou = 0, precision = 0, recall = 0, moving = 0;  // percent
   size_t windows = 0;
   double static_moving = -1;  // percent of the static scenes' events called moving; -1 = none
-  bool eligible = true;       // within max_static_moving (always, without static scenes)
 };
 
 struct CalibrationResult {
   std::vector<CalibrationPoint> points;  // by gate, then factor
   size_t best = 0;                       // index into points
   EvalResults eval;                      // the scoring behind them
-  EvalResults static_eval;               // the static scenes' (empty without them)
 };
 
 // Scores the model at every factor (and gate) and picks the best by the criterion; ties (within

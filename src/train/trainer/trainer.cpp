@@ -286,7 +286,6 @@ struct Curves {
   }
 };
 
-// Keeps the log lines of steps up to `step` (a resumed run rewrites what followed).
 // The whole text of a gzipped file (zlib's gz reader); throws Error naming it when unreadable.
 std::string read_gzip(const std::string& path) {
   gzFile f = gzopen(path.c_str(), "rb");
