@@ -37,6 +37,25 @@ std::string attr_value(std::string_view xml, const std::string& key) {
   return std::string(xml.substr(gt + 1, lt - gt - 1));
 }
 
+// The root of the size-prefixed FlatBuffer in buf[0, size) after verification, or nullptr.
+// Writers differ in what they align to: dv-processing aligns from the size prefix, others
+// (the DAVIS346 clip of neuromorphicsystems/aedat's test data, as trimmed in
+// shiba24/event-vision-library) from the bytes after it, so an 8-byte field sits 4 bytes off
+// for the other convention. Both are accepted: the second is verified on an aligned copy of the
+// buffer without its prefix (`unprefixed`, which then holds the data the root points into);
+// `from_prefix` = false goes to it directly.
+template <typename T>
+const T* verified_root(const uint8_t* buf, size_t size, std::vector<uint8_t>& unprefixed,
+                       bool from_prefix = true) {
+  flatbuffers::Verifier prefixed(buf, size);
+  if (from_prefix && prefixed.VerifySizePrefixedBuffer<T>(nullptr))
+    return flatbuffers::GetSizePrefixedRoot<T>(buf);
+  unprefixed.assign(buf + 4, buf + size);  // heap memory: aligned for any scalar
+  flatbuffers::Verifier plain(unprefixed.data(), unprefixed.size());
+  if (plain.VerifyBuffer<T>(nullptr)) return flatbuffers::GetRoot<T>(unprefixed.data());
+  return nullptr;
+}
+
 }  // namespace
 
 std::vector<Aedat4Stream> parse_aedat4_info(std::string_view xml) {
@@ -175,13 +194,13 @@ class Aedat4Reader final : public CameraReader {
     store_le32(hdr.data(), uint32_t(hsize));
     uint64_t hoff = in_.offset();
     in_.read_exact(hdr.data() + 4, size_t(hsize), "the IOHeader");
-    flatbuffers::Verifier verifier(hdr.data(), hdr.size());
-    if (!verifier.VerifySizePrefixedBuffer<aedat4::IOHeader>(nullptr))
+    std::vector<uint8_t> unprefixed;
+    const aedat4::IOHeader* h = verified_root<aedat4::IOHeader>(hdr.data(), hdr.size(), unprefixed);
+    if (!h)
       fail_at_byte(in_.name(), hoff,
                    "corrupt FlatBuffers data: the IOHeader fails verification (an offset, size "
                    "or alignment points outside its " +
                        std::to_string(hsize) + " bytes)");
-    const aedat4::IOHeader* h = aedat4::GetSizePrefixedIOHeader(hdr.data());
     compression_ = int(h->compression());
     if (compression_ < kAedatNone || compression_ > kAedatZstdHigh)
       fail_at_byte(in_.name(), hoff, "unknown compression type " + std::to_string(compression_));
@@ -261,18 +280,31 @@ class Aedat4Reader final : public CameraReader {
       if (fsize > packet_.size() - 4)
         fail_at_byte(in_.name(), packet_offset_,
                      "packet FlatBuffer size " + std::to_string(fsize) + " exceeds the packet");
-      flatbuffers::Verifier verifier(packet_.data(), size_t(fsize) + 4);
-      if (!verifier.VerifySizePrefixedBuffer<aedat4::EventPacket>(nullptr))
+      const aedat4::EventPacket* pk =
+          verified_root<aedat4::EventPacket>(packet_.data(), size_t(fsize) + 4, unprefixed_);
+      if (!pk)
         fail_at_byte(in_.name(), packet_offset_,
                      "corrupt FlatBuffers data: the EventPacket fails verification (an offset, "
                      "size or alignment points outside its " +
                          std::to_string(fsize) + " decompressed bytes)");
-      const auto* elements = aedat4::GetSizePrefixedEventPacket(packet_.data())->elements();
+      // The verifier checks the vector's length field, not that its 8-byte structs are
+      // 8-aligned; the accessors read them in place, so check (packet_ is malloc-aligned) and
+      // try the other alignment convention (verified_root) before giving up.
+      auto misaligned = [](const aedat4::EventPacket* p) {
+        const auto* v = p->elements();
+        return v && v->size() &&
+               reinterpret_cast<uintptr_t>(v->Get(0)) % alignof(aedat4::Event) != 0;
+      };
+      const auto* at = reinterpret_cast<const uint8_t*>(pk);
+      const bool in_copy = at >= unprefixed_.data() && at < unprefixed_.data() + unprefixed_.size();
+      if (misaligned(pk) && !in_copy)
+        if (const auto* other = verified_root<aedat4::EventPacket>(
+                packet_.data(), size_t(fsize) + 4, unprefixed_, false))
+          pk = other;
+      const auto* elements = pk->elements();
       count_ = elements ? elements->size() : 0;
       elems_ = count_ ? elements->Get(0) : nullptr;  // structs lie contiguously from here
-      // The verifier checks the vector's length field, not that its 8-byte structs are
-      // 8-aligned; the accessors read them in place, so check (packet_ is malloc-aligned).
-      if (count_ && reinterpret_cast<uintptr_t>(elems_) % alignof(aedat4::Event) != 0)
+      if (misaligned(pk))
         fail_at_byte(in_.name(), packet_offset_,
                      "corrupt FlatBuffers data: the events vector is not 8-byte aligned");
       next_ = 0;
@@ -284,7 +316,7 @@ class Aedat4Reader final : public CameraReader {
   int compression_ = kAedatNone;
   uint64_t packets_end_ = UINT64_MAX;
   std::vector<int> event_streams_;
-  std::vector<uint8_t> comp_, packet_;
+  std::vector<uint8_t> comp_, packet_, unprefixed_;
   uint64_t packet_offset_ = 0;
   const aedat4::Event* elems_ = nullptr;
   size_t count_ = 0, next_ = 0;
