@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The twenty-seventh session's paired fine-tunes of the CPU student (runs/student27/README.md):
-# both start from runs/student26/t2's final (averaged) model with a fresh optimizer and a short
+# both start from runs/student26/t2's averaged model at step 2,875 with a fresh optimizer and a short
 # cosine schedule (lr 3e-4 -> 2e-5 over 500 steps, weight average 0.995) and keep static scenes
 # at a fifth of the samples. `control` keeps t2's data mix; `sparse` gives half of the static
 # share to rooms without objects whose walls are mostly flat and which hold 3-8 static
@@ -20,7 +20,7 @@ DATA="[$ROOMS"
 for d in $STATIC_OLD; do DATA+=",{path=\"$d\",split=\"all\",weight=$W}"; done
 DATA+="$EXTRA]"
 exec "$SPIKEMS" train --config configs/train/hybrid.toml --threads 1 -q \
-  --set 'model.init="runs/student26/t2/model.safetensors"' --set 'model.init_ann=""' \
+  --set 'model.init="runs/student26/t2/val-step2875.safetensors"' --set 'model.init_ann=""' \
   --set "loss.teacher=\"$T\"" --set "data.train=$DATA" \
   --set 'data.val_static=[{path="data/modstaticsparse-sizes-val5015"},{path="data/posterflat-sim601"}]' \
   --set optim.lr=0.0003 --set optim.warmup_steps=20 --set optim.ema_decay=0.995 \
