@@ -37,23 +37,27 @@ std::string attr_value(std::string_view xml, const std::string& key) {
   return std::string(xml.substr(gt + 1, lt - gt - 1));
 }
 
-// The root of the size-prefixed FlatBuffer in buf[0, size) after verification, or nullptr.
-// Writers differ in what they align to: dv-processing aligns from the size prefix, others
-// (the DAVIS346 clip of neuromorphicsystems/aedat's test data, as trimmed in
+// The root of the size-prefixed FlatBuffer in buf[0, size) after verification, or nullptr when
+// it fails. Writers differ in what they align to: dv-processing aligns from the size prefix,
+// others (the DAVIS346 clip of neuromorphicsystems/aedat's test data, as trimmed in
 // shiba24/event-vision-library) from the bytes after it, so an 8-byte field sits 4 bytes off
-// for the other convention. Both are accepted: the second is verified on an aligned copy of the
-// buffer without its prefix (`unprefixed`, which then holds the data the root points into);
-// `from_prefix` = false goes to it directly.
-template <typename T>
+// for the other convention. The prefix's convention is tried first; when it fails verification
+// or `aligned(root)` is false, the second is verified on an aligned copy of the buffer without
+// its prefix (`unprefixed`, which then holds the data that root points into). A root that
+// verifies but is aligned in neither is returned for the caller to refuse.
+template <typename T, typename Aligned>
 const T* verified_root(const uint8_t* buf, size_t size, std::vector<uint8_t>& unprefixed,
-                       bool from_prefix = true) {
+                       Aligned aligned) {
+  const T* found = nullptr;
   flatbuffers::Verifier prefixed(buf, size);
-  if (from_prefix && prefixed.VerifySizePrefixedBuffer<T>(nullptr))
-    return flatbuffers::GetSizePrefixedRoot<T>(buf);
+  if (prefixed.VerifySizePrefixedBuffer<T>(nullptr)) {
+    found = flatbuffers::GetSizePrefixedRoot<T>(buf);
+    if (aligned(found)) return found;
+  }
   unprefixed.assign(buf + 4, buf + size);  // heap memory: aligned for any scalar
   flatbuffers::Verifier plain(unprefixed.data(), unprefixed.size());
   if (plain.VerifyBuffer<T>(nullptr)) return flatbuffers::GetRoot<T>(unprefixed.data());
-  return nullptr;
+  return found;
 }
 
 }  // namespace
@@ -195,7 +199,8 @@ class Aedat4Reader final : public CameraReader {
     uint64_t hoff = in_.offset();
     in_.read_exact(hdr.data() + 4, size_t(hsize), "the IOHeader");
     std::vector<uint8_t> unprefixed;
-    const aedat4::IOHeader* h = verified_root<aedat4::IOHeader>(hdr.data(), hdr.size(), unprefixed);
+    const aedat4::IOHeader* h = verified_root<aedat4::IOHeader>(
+        hdr.data(), hdr.size(), unprefixed, [](const aedat4::IOHeader*) { return true; });
     if (!h)
       fail_at_byte(in_.name(), hoff,
                    "corrupt FlatBuffers data: the IOHeader fails verification (an offset, size "
@@ -280,33 +285,27 @@ class Aedat4Reader final : public CameraReader {
       if (fsize > packet_.size() - 4)
         fail_at_byte(in_.name(), packet_offset_,
                      "packet FlatBuffer size " + std::to_string(fsize) + " exceeds the packet");
-      const aedat4::EventPacket* pk =
-          verified_root<aedat4::EventPacket>(packet_.data(), size_t(fsize) + 4, unprefixed_);
+      // The verifier checks the vector's length field, not that its 8-byte structs are
+      // 8-aligned; the accessors read them in place, so check that too (packet_ and the copy
+      // are heap memory, aligned for any scalar).
+      auto aligned = [](const aedat4::EventPacket* p) {
+        const auto* v = p->elements();
+        return !v || !v->size() ||
+               reinterpret_cast<uintptr_t>(v->Get(0)) % alignof(aedat4::Event) == 0;
+      };
+      const aedat4::EventPacket* pk = verified_root<aedat4::EventPacket>(
+          packet_.data(), size_t(fsize) + 4, unprefixed_, aligned);
       if (!pk)
         fail_at_byte(in_.name(), packet_offset_,
                      "corrupt FlatBuffers data: the EventPacket fails verification (an offset, "
                      "size or alignment points outside its " +
                          std::to_string(fsize) + " decompressed bytes)");
-      // The verifier checks the vector's length field, not that its 8-byte structs are
-      // 8-aligned; the accessors read them in place, so check (packet_ is malloc-aligned) and
-      // try the other alignment convention (verified_root) before giving up.
-      auto misaligned = [](const aedat4::EventPacket* p) {
-        const auto* v = p->elements();
-        return v && v->size() &&
-               reinterpret_cast<uintptr_t>(v->Get(0)) % alignof(aedat4::Event) != 0;
-      };
-      const auto* at = reinterpret_cast<const uint8_t*>(pk);
-      const bool in_copy = at >= unprefixed_.data() && at < unprefixed_.data() + unprefixed_.size();
-      if (misaligned(pk) && !in_copy)
-        if (const auto* other = verified_root<aedat4::EventPacket>(
-                packet_.data(), size_t(fsize) + 4, unprefixed_, false))
-          pk = other;
+      if (!aligned(pk))
+        fail_at_byte(in_.name(), packet_offset_,
+                     "corrupt FlatBuffers data: the events vector is not 8-byte aligned");
       const auto* elements = pk->elements();
       count_ = elements ? elements->size() : 0;
       elems_ = count_ ? elements->Get(0) : nullptr;  // structs lie contiguously from here
-      if (misaligned(pk))
-        fail_at_byte(in_.name(), packet_offset_,
-                     "corrupt FlatBuffers data: the events vector is not 8-byte aligned");
       next_ = 0;
       if (count_ > 0) return true;
     }
