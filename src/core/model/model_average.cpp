@@ -39,10 +39,10 @@ void same_num(double a, double b, const std::string& source, const std::string& 
 void check_compatible(const ModelSpec& a, const ModelSpec& b, const std::string& source) {
   same(a.type, b.type, source, "", "the model type");
   same_num(a.time_step_ms, b.time_step_ms, source, "", "the time step (ms)");
-  same(a.input_width, b.input_width, source, "", "the input width");
-  same(a.input_height, b.input_height, source, "", "the input height");
+  same_num(a.input_width, b.input_width, source, "", "the input width");
+  same_num(a.input_height, b.input_height, source, "", "the input height");
   same_num(a.output_gate_steps, b.output_gate_steps, source, "", "the output gate (steps)");
-  same(a.ann_history, b.ann_history, source, "", "the frame history");
+  same_num(a.ann_history, b.ann_history, source, "", "the frame history");
   same_num(double(a.layers.size()), double(b.layers.size()), source, "", "the layer count");
   for (size_t k = 0; k < a.layers.size(); ++k) {
     const LayerSpec &x = a.layers[k], &y = b.layers[k];
