@@ -6,7 +6,13 @@
 # share to rooms without objects whose walls are mostly flat and which hold 3-8 static
 # look-alikes (modstatic-sparse-sizes.toml): event-dense islands that do not move.
 # Usage: runs/student27/train.sh control|sparse [MORE train ARGS]
+# INIT, LR, STEPS and ROOT change the start model, learning rate, length and output folder
+# (runs/student28/train.sh uses them); their defaults are what this session ran.
 set -euo pipefail
+INIT=${INIT:-runs/student26/t2/val-step2875.safetensors}
+LR=${LR:-0.0003}
+STEPS=${STEPS:-500}
+ROOT=${ROOT:-runs/student27}
 SPIKEMS=${SPIKEMS:-build/spikems}
 T=runs/sizes24/teacher-static-sizes-step1000.safetensors
 ROOMS='{path="data/mod2-train",split="train",weight=0.12},{path="data/mod3-train",split="all",weight=0.48},{path="data/modfine-train121",split="all",weight=0.2}'
@@ -20,9 +26,9 @@ DATA="[$ROOMS"
 for d in $STATIC_OLD; do DATA+=",{path=\"$d\",split=\"all\",weight=$W}"; done
 DATA+="$EXTRA]"
 exec "$SPIKEMS" train --config configs/train/hybrid.toml --threads 1 -q \
-  --set 'model.init="runs/student26/t2/val-step2875.safetensors"' --set 'model.init_ann=""' \
+  --set "model.init=\"$INIT\"" --set 'model.init_ann=""' \
   --set "loss.teacher=\"$T\"" --set "data.train=$DATA" \
   --set 'data.val_static=[{path="data/modstaticsparse-sizes-val5015"},{path="data/posterflat-sim601"}]' \
-  --set optim.lr=0.0003 --set optim.warmup_steps=20 --set optim.ema_decay=0.995 \
+  --set optim.lr=$LR --set optim.warmup_steps=20 --set optim.ema_decay=0.995 \
   --set run.val_every=100 --set run.keep_val_models=true --set run.val_full_s=0.5 \
-  --steps 500 --time-limit "${TIME_LIMIT:-80min}" --out "runs/student27/$1" "${@:2}"
+  --steps "$STEPS" --time-limit "${TIME_LIMIT:-80min}" --out "$ROOT/$1" "${@:2}"

@@ -340,6 +340,67 @@ TEST_F(EvalCli, ShareBandsPartitionTheScoredWindows) {
   }
 }
 
+// --min-moving-share: the windows kept are exactly the band at or above the share of a run
+// without the filter (same IoU, detection and count); the rest with moving events are counted
+// as filtered; combinations without labels are refused.
+TEST_F(EvalCli, MinMovingShareScoresTheTopBandOnly) {
+  const std::string o = dir_ + "/out_minshare";
+  std::string out;
+  ASSERT_EQ(run_command(eval("--data " + data() + " --split all --windows 10,50 --share-bands 20 " +
+                             "--out " + o + "a"),
+                        &out),
+            0)
+      << out;
+  ASSERT_EQ(run_command(eval("--data " + data() + " --split all --windows 10,50 --share-bands 20 " +
+                             "--min-moving-share 20 --out " + o + "f"),
+                        &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("| filtered |"), std::string::npos) << out;
+  const auto a = nlohmann::json::parse(slurp(o + "a/results.json"));
+  const auto f = nlohmann::json::parse(slurp(o + "f/results.json"));
+  EXPECT_TRUE(a["min_moving_share_pct"].is_null());
+  EXPECT_EQ(f["min_moving_share_pct"], 20.0);
+  const auto& aw = a["models"][0]["datasets"][0]["windows"];
+  const auto& fw = f["models"][0]["datasets"][0]["windows"];
+  ASSERT_EQ(aw.size(), 2u);
+  size_t kept_somewhere = 0, filtered_somewhere = 0;
+  for (size_t i = 0; i < aw.size(); ++i) {
+    const auto& top = aw[i]["share_bands"][1];  // >= 20 %
+    const auto& low = aw[i]["share_bands"][0];
+    EXPECT_EQ(aw[i]["filtered_windows"], 0u);
+    EXPECT_EQ(fw[i]["windows"], top["windows"]) << i;
+    EXPECT_EQ(fw[i]["filtered_windows"], low["windows"]) << i;
+    EXPECT_EQ(fw[i]["skipped_windows"], aw[i]["skipped_windows"]) << i;
+    // The events are counted over every window either way.
+    EXPECT_EQ(fw[i]["event_counts"], aw[i]["event_counts"]) << i;
+    if (top["windows"].get<size_t>() > 0) {
+      ++kept_somewhere;
+      EXPECT_NEAR(fw[i]["iou_mean"].get<double>(), top["iou_mean"].get<double>(), 1e-9);
+      EXPECT_NEAR(fw[i]["detection_rate"].get<double>(), top["detection_rate"].get<double>(), 1e-9);
+    }
+    filtered_somewhere += low["windows"].get<size_t>() > 0;
+  }
+  EXPECT_GT(kept_somewhere, 0u);  // the tiny preset has windows on both sides of 20 %
+  EXPECT_GT(filtered_somewhere, 0u);
+  EXPECT_NE(slurp(o + "f/results.csv").find(",filtered_windows\n"), std::string::npos);
+  EXPECT_NE(slurp(o + "f/results.md").find("at least 20 %"), std::string::npos);
+  // Refused: out of range (exit 1), not a number (the parser's non-zero exit), and with inputs
+  // that have no labelled moving events.
+  for (const char* bad : {"100", "-1"}) {
+    EXPECT_EQ(run_command(eval("--data " + data() + " --min-moving-share " + bad), &out), 1) << bad;
+    EXPECT_NE(out.find("--min-moving-share"), std::string::npos) << bad << ": " << out;
+    EXPECT_NE(out.find("[0, 100)"), std::string::npos) << bad << ": " << out;
+  }
+  EXPECT_NE(run_command(eval("--data " + data() + " --min-moving-share abc"), &out), 0);
+  EXPECT_NE(out.find("--min-moving-share"), std::string::npos) << out;
+  EXPECT_EQ(
+      run_command(eval("--data " + data() + " --split all --static-scene --min-moving-share 50"),
+                  &out),
+      1);
+  EXPECT_NE(out.find("--static-scene"), std::string::npos) << out;
+}
+
 // --static-scene: an unlabelled recording of a static scene; every event is background and the
 // score is the share of events each model labels moving.
 TEST_F(EvalCli, StaticSceneScoresTheShareOfEventsCalledMoving) {
@@ -385,7 +446,8 @@ TEST_F(EvalCli, StaticSceneScoresTheShareOfEventsCalledMoving) {
   EXPECT_DOUBLE_EQ(share[2], 100.0);  // every event moving
   EXPECT_NE(out.find("moving %"), std::string::npos) << out;
   EXPECT_NE(slurp(o + "/results.md").find("static scene"), std::string::npos);
-  EXPECT_NE(slurp(o + "/results.csv").find(",moving_share,output_threshold_scale,output_gate_ms\n"),
+  EXPECT_NE(slurp(o + "/results.csv")
+                .find(",moving_share,output_threshold_scale,output_gate_ms,filtered_windows\n"),
             std::string::npos);
   // Without the flag the same file is refused for its missing labels; with boxes it is refused.
   EXPECT_EQ(run_command(eval("--data " + rec + " --out " + o + "x"), &out), 1);
@@ -428,7 +490,7 @@ TEST_F(EvalCli, OutputThresholdsGiveARowPerFactorAndAnOperatingPointPlot) {
   EXPECT_EQ(moving[2], 0.0);  // above any reachable potential: nothing
   EXPECT_NE(out.find("pass_all.safetensors θ×4 "), std::string::npos) << out;
   EXPECT_NE(slurp(o + "/results.md").find("output θ × 50"), std::string::npos);
-  EXPECT_NE(slurp(o + "/results.csv").find(",50,0\n"), std::string::npos);
+  EXPECT_NE(slurp(o + "/results.csv").find(",50,0,0\n"), std::string::npos);
   // The plot: the model's curve (factors 1 and 4; nothing is labelled at 50, so no precision)
   // and the baseline's point, named once each.
   const std::string svg = slurp(o + "/plots/operating_points_1.svg");
@@ -471,7 +533,7 @@ TEST_F(EvalCli, OutputGatesGiveARowPerGate) {
   EXPECT_DOUBLE_EQ(iou[2], iou[0]);
   EXPECT_NE(out.find("pass_all.safetensors gate 1 ms "), std::string::npos) << out;
   EXPECT_NE(slurp(o + "/results.md").find("output gate 100 ms"), std::string::npos);
-  EXPECT_NE(slurp(o + "/results.csv").find(",1,100\n"), std::string::npos);
+  EXPECT_NE(slurp(o + "/results.csv").find(",1,100,0\n"), std::string::npos);
   for (const char* bad : {"-1", "1,x", "1,1", "1,,2", "0.5", "0.0001"}) {
     EXPECT_EQ(run_command(eval(std::string("--data ") + data() + " --output-gates " + bad), &out),
               1)

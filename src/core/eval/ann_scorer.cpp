@@ -45,6 +45,7 @@ SequenceScore score_ann_sequence(const ModelSpec& model, const LabelledSequence&
     scorer.gate_by_events(opt.gate_events);
     scorer.use_boxes(opt.boxes);
     scorer.track_moving_share(opt.moving_share);
+    scorer.min_moving_share(opt.min_moving_share);
     EventTally tally(t0, L);
     scorer.add_events(scored);
     PredictionFrame f;

@@ -12,6 +12,7 @@
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
 #include "core/util/progress.h"
+#include "core/util/text_format.h"
 #include "core/viz/event_frame.h"
 
 namespace spikems {
@@ -62,6 +63,13 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
     fail("spikems eval", "", "no model given (--model FILE)");
   if (opt.data.empty()) fail("spikems eval", "", "no data given (--data PATH)");
   check_band_edges(opt.share_bands_pct);
+  if (!(opt.min_moving_share_pct >= 0 && opt.min_moving_share_pct < 100))
+    fail("--min-moving-share", fmt("%g", opt.min_moving_share_pct),
+         "must be a percentage in [0, 100), e.g. 50");
+  if (opt.min_moving_share_pct > 0 && (opt.static_scene || !opt.boxes.empty()))
+    fail("--min-moving-share", "",
+         "filters windows by their labelled moving events: it takes neither --static-scene nor "
+         "--boxes");
   const std::vector<double> scales =
       opt.output_thresholds.empty() ? std::vector<double>{1.0} : opt.output_thresholds;
   std::vector<ModelSpec> models;
@@ -153,6 +161,8 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   r.static_scene = opt.static_scene;
   r.share_bands_pct = opt.share_bands_pct;
   so.moving_share = !opt.share_bands_pct.empty();
+  so.min_moving_share = opt.min_moving_share_pct / 100.0;
+  r.min_moving_share_pct = opt.min_moving_share_pct;
   r.label_tolerance_steps = so.label_tolerance_steps;
   so.max_us = opt.max_seconds > 0 ? int64_t(opt.max_seconds * 1e6 + 0.5) : 0;
   size_t done = 0;

@@ -43,6 +43,10 @@ struct EvalOptions {
   // Edges (percent, increasing, in (0, 100)) splitting the scored windows by the share of
   // their input events that are truly moving: a row of results per band (results.h); {} = none.
   std::vector<double> share_bands_pct = kDefaultShareBandsPct;
+  // > 0: only windows in which at least this percent of the input events are truly moving are
+  // scored (the SpikeMS authors' test filter; WindowScorer::min_moving_share); the others are
+  // counted as filtered. Needs labels: refused with boxes and static scenes.
+  double min_moving_share_pct = 0;
   double max_seconds = 0;    // > 0: only the first max_seconds of each sequence
   bool progress = false;     // progress bar on stderr
   std::string command_line;  // recorded in the results

@@ -33,8 +33,11 @@ class WindowScores {
   // moving_share: the fraction (0-1) of the window's input events that are truly moving, the
   // key of the size bands (results.h); NaN where unknown (boxes as truth).
   void add(const MaskCounts& c, double moving_share = kUnknownShare);
+  // A window left out by a moving-share filter (WindowScorer::min_moving_share): counted only.
+  void add_filtered() { ++filtered_; }
   size_t windows() const { return ious_.size(); }
   size_t skipped() const { return skipped_; }
+  size_t filtered() const { return filtered_; }
   double mean_iou() const;
   double std_iou() const;
   double detection_rate() const;  // fraction of scored windows that are detections
@@ -48,7 +51,7 @@ class WindowScores {
  private:
   std::vector<double> ious_, shares_;
   std::vector<uint8_t> detected_;
-  size_t detections_ = 0, skipped_ = 0;
+  size_t detections_ = 0, skipped_ = 0, filtered_ = 0;
 };
 
 // Per-event confusion counts: an event is predicted moving when the runtime labels it so

@@ -132,6 +132,10 @@ std::string write_report(const EvalResults& r, const EvalExamples& ex, const std
   page.paragraph("Models: " + models + ".");
   if (r.max_seconds > 0)
     page.paragraph("Only the first " + fmt("%g", r.max_seconds) + " s of each sequence scored.");
+  if (r.min_moving_share_pct > 0)
+    page.paragraph("Only windows in which at least " + fmt("%g", r.min_moving_share_pct) +
+                   " % of the input events are truly moving are scored (the SpikeMS authors' "
+                   "test filter); the others are counted as filtered.");
   if (r.interrupted)
     page.paragraph("Interrupted (Ctrl-C): only the sequences finished before it are in.");
   const std::string g = r.boxes.empty() ? "pixels with moving-object events"

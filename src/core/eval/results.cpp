@@ -25,6 +25,7 @@ WindowSummary summarize(int64_t window_us, const std::vector<const WindowScores*
   for (const WindowScores* p : parts) {
     s.windows += p->windows();
     s.skipped += p->skipped();
+    s.filtered += p->filtered();
     for (double v : p->ious()) sum += v;
     // WindowScores keeps the rate only; rate * windows is the integer count it came from.
     detections += std::round(p->detection_rate() * double(p->windows()));
@@ -178,6 +179,7 @@ nlohmann::ordered_json row_json(const WindowSummary& w, bool with_sequences) {
       any ? nlohmann::ordered_json(w.detection_rate) : nlohmann::ordered_json(nullptr);
   j["windows"] = w.windows;
   j["skipped_windows"] = w.skipped;
+  j["filtered_windows"] = w.filtered;
   if (with_sequences) j["sequences"] = w.sequences;
   j["filter"] = w.kalman ? nlohmann::ordered_json("kalman") : nlohmann::ordered_json(nullptr);
   const EventCounts& e = w.events;
@@ -241,7 +243,7 @@ std::string csv_row(const std::string& level, const ModelResult& m, const Datase
   r += ",";
   if (w.has_events && e.total() > 0) r += fmt("%.4f", 100 * e.moving_share());
   return r + "," + fmt("%g", m.output_threshold) + "," +
-         fmt("%g", m.output_gate_steps * m.time_step_ms) + "\n";
+         fmt("%g", m.output_gate_steps * m.time_step_ms) + "," + std::to_string(w.filtered) + "\n";
 }
 
 // Display width of UTF-8 text (code points; the tables use ±, Δ and –).
@@ -313,6 +315,9 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
   j["boxes"] = r.boxes.empty() ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(r.boxes);
   j["static_scene"] = r.static_scene;
   j["share_bands_pct"] = r.share_bands_pct;
+  j["min_moving_share_pct"] = r.min_moving_share_pct > 0
+                                  ? nlohmann::ordered_json(r.min_moving_share_pct)
+                                  : nlohmann::ordered_json(nullptr);
   j["protocol"] = {
       {"window_start", "first event of each sequence"},
       {"partial_last_window", "dropped"},
@@ -328,6 +333,10 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
       {"iou", "|P and G| / |P or G| per window; mean and population std over windows"},
       {"detection", "0-MMS: |P and G| > 0.5 |G| and |P and G| > |P - G|"},
       {"skipped", "windows whose G is empty are not scored, only counted"},
+      {"filtered",
+       "with min_moving_share_pct: windows whose G is not empty but fewer than that percent of "
+       "whose input events are truly moving are not scored, only counted (filtered_windows; "
+       "the SpikeMS authors' test filter); the event counts still cover every window"},
       {"units",
        "iou, detection_rate, event_precision, event_recall and moving_share in percent (0-100)"},
       {"moving_share", "the share of all events the runtime labels moving"},
@@ -388,7 +397,7 @@ std::string results_csv(const EvalResults& r) {
   std::string out =
       "level,model,data,split,sequence,window_ms,iou_mean,iou_std,detection_rate,windows,"
       "skipped_windows,sequences,filter,event_precision,event_recall,events_tp,events_fp,"
-      "events_fn,events_tn,moving_share,output_threshold_scale,output_gate_ms\n";
+      "events_fn,events_tn,moving_share,output_threshold_scale,output_gate_ms,filtered_windows\n";
   for (const auto& m : r.models)
     for (const auto& d : m.datasets) {
       for (const auto& w : d.windows) out += csv_row("dataset", m, d, "", w);
@@ -414,17 +423,29 @@ std::string model_label(const EvalResults& r, const ModelResult& m) {
 
 TextTable summary_table(const EvalResults& r) {
   TextTable t;
+  const bool filter = r.min_moving_share_pct > 0;
   t.header = {"model",       "data",      "split",     "Δt ms",    "IoU % (mean ± std)",
               "detection %", "event P %", "event R %", "moving %", "windows",
               "skipped",     "sequences"};
+  if (filter) t.header.insert(t.header.end() - 1, "filtered");
   for (const auto& m : r.models)
     for (const auto& d : m.datasets)
       for (const auto& w : d.windows) {
         auto sc = score_cells(w);
-        t.rows.push_back({model_label(r, m), d.data, d.split.empty() ? "–" : d.split,
-                          window_cell(w), sc[0], sc[1], sc[2], sc[3], sc[4],
-                          std::to_string(w.windows), std::to_string(w.skipped),
-                          std::to_string(w.sequences)});
+        std::vector<std::string> row = {model_label(r, m),
+                                        d.data,
+                                        d.split.empty() ? "–" : d.split,
+                                        window_cell(w),
+                                        sc[0],
+                                        sc[1],
+                                        sc[2],
+                                        sc[3],
+                                        sc[4],
+                                        std::to_string(w.windows),
+                                        std::to_string(w.skipped),
+                                        std::to_string(w.sequences)};
+        if (filter) row.insert(row.end() - 1, std::to_string(w.filtered));
+        t.rows.push_back(std::move(row));
       }
   return t;
 }
@@ -505,6 +526,10 @@ std::string results_markdown(const EvalResults& r) {
   if (!r.boxes.empty())
     out += "- ground truth from boxes (`" + r.boxes +
            "`): G = the pixels inside the boxes valid in the window\n";
+  if (r.min_moving_share_pct > 0)
+    out += "- only windows in which at least " + fmt("%g", r.min_moving_share_pct) +
+           " % of the input events are truly moving are scored (the SpikeMS authors' test "
+           "filter; the others are counted as `filtered`)\n";
   if (r.interrupted) out += "- **interrupted**: the sequences finished before Ctrl-C only\n";
   const std::string g = r.boxes.empty() ? "pixels with moving-object events"
                                         : "pixels inside the boxes valid in the window";

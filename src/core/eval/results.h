@@ -31,8 +31,9 @@ inline const std::vector<double> kDefaultShareBandsPct = {2, 10};
 
 struct WindowSummary {
   int64_t window_us = 0;
-  size_t windows = 0;  // scored windows (G not empty)
-  size_t skipped = 0;  // windows without moving-object events
+  size_t windows = 0;   // scored windows (G not empty)
+  size_t skipped = 0;   // windows without moving-object events
+  size_t filtered = 0;  // windows with moving events left out by the moving-share filter
   size_t sequences = 0;
   // Over the scored windows, in percent; meaningless (and written as null) when windows == 0.
   double iou_mean = 0, iou_std = 0, detection_rate = 0;
@@ -103,6 +104,7 @@ struct EvalResults {
   std::string boxes;               // the boxes file giving G (EvalOptions::boxes); "" if none
   bool static_scene = false;       // every event background (EvalOptions::static_scene)
   std::vector<double> share_bands_pct = kDefaultShareBandsPct;  // EvalOptions::share_bands_pct
+  double min_moving_share_pct = 0;  // EvalOptions::min_moving_share_pct; 0 = every window
   std::vector<ModelResult> models;
 };
 

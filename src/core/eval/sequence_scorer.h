@@ -44,6 +44,9 @@ struct SequenceScoreOptions {
   // Each window's moving share for the size bands (WindowScorer::track_moving_share); off
   // when no bands are asked for (`--share-bands none`).
   bool moving_share = true;
+  // > 0: only windows with at least this fraction of their input events truly moving are
+  // scored, the others counted as filtered (WindowScorer::min_moving_share).
+  double min_moving_share = 0;
 };
 
 struct SequenceScore {

@@ -42,13 +42,25 @@ WindowScorer::WindowScorer(SensorSize sensor, std::vector<int64_t> windows_us,
 void WindowScorer::use_boxes(std::shared_ptr<const BoxTruth> boxes) {
   if (have_origin_) fail("window scorer", "", "use_boxes must come before the first events");
   if (boxes) boxes->check_sensor(sensor_);
+  if (boxes && min_share_ > 0)
+    fail("window scorer", "", "a moving-share filter needs labelled events, not boxes");
   boxes_ = std::move(boxes);
 }
 
 void WindowScorer::track_moving_share(bool on) {
   if (have_origin_)
     fail("window scorer", "", "track_moving_share must come before the first events");
-  shares_ = on;
+  shares_ = on || min_share_ > 0;  // a moving-share filter needs the shares
+}
+
+void WindowScorer::min_moving_share(double fraction) {
+  if (have_origin_) fail("window scorer", "", "min_moving_share must come before the first events");
+  if (!(fraction >= 0 && fraction < 1))
+    fail("window scorer", "", "the minimum moving share must lie in [0, 1)");
+  if (fraction > 0 && boxes_)
+    fail("window scorer", "", "a moving-share filter needs labelled events, not boxes");
+  min_share_ = fraction;
+  if (fraction > 0) shares_ = true;
 }
 
 void WindowScorer::gate_by_events(bool on) {
@@ -194,7 +206,13 @@ void WindowScorer::score(size_t i, int64_t k) {
   double share = WindowScores::kUnknownShare;
   if (auto n = l.n.find(k); n != l.n.end() && n->second[0] > 0)  // none counted with boxes
     share = double(n->second[1]) / double(n->second[0]);
-  scores_[i].add(c, share);
+  // A window with moving events below the share asked for is left out (its G is not empty:
+  // windows without moving events stay "skipped"). Filtered rows keep their filter's state,
+  // which apply() above has updated already.
+  if (min_share_ > 0 && c.truth > 0 && !(share >= min_share_))
+    scores_[i].add_filtered();
+  else
+    scores_[i].add(c, share);
   if (i == capture_length_ &&
       std::binary_search(capture_indices_.begin(), capture_indices_.end(), k)) {
     CapturedWindow w;

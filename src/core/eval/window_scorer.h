@@ -93,6 +93,12 @@ class WindowScorer {
   // the first events.
   void track_moving_share(bool on);
 
+  // Scores only the windows whose moving share is at least `fraction` (0-1); the others with
+  // a non-empty G are counted as filtered (WindowScores::filtered). This is the SpikeMS
+  // authors' test filter (docs/evaluation.md, "The authors' window filter"). Turns the share
+  // tracking on; refused with boxes (no share). 0 = off. Call before the first events.
+  void min_moving_share(double fraction);
+
   // One per length, in the order given: the plain lengths, then the filtered ones.
   const std::vector<WindowScores>& scores() const { return scores_; }
 
@@ -142,6 +148,7 @@ class WindowScorer {
   bool any_filter_ = false;
   bool gate_ = false;                      // P ∩ E for the plain lengths
   bool shares_ = true;                     // track_moving_share
+  double min_share_ = 0;                   // min_moving_share
   std::shared_ptr<const BoxTruth> boxes_;  // G from boxes when set
   std::vector<uint8_t> gated_p_;           // scratch
 };

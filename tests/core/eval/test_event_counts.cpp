@@ -111,7 +111,7 @@ TEST(SequenceScorer, EventPrecisionAndRecallFromTheRuntimesLabels) {
   // 6 of the 10 events labelled moving (tp + fp).
   EXPECT_DOUBLE_EQ(row["moving_share"].get<double>(), 60.0);
   const std::string csv = results_csv(r);
-  EXPECT_NE(csv.find(",66.6667,66.6667,4,2,2,2,60.0000,1,0\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",66.6667,66.6667,4,2,2,2,60.0000,1,0,0\n"), std::string::npos) << csv;
 }
 
 }  // namespace

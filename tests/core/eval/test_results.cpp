@@ -75,10 +75,10 @@ TEST(EvalResults, DatasetRowsPoolEveryWindowOfEverySequence) {
   EXPECT_EQ(csv.rfind("level,model,data,split,sequence,window_ms,iou_mean,", 0), 0u);
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 7);
   EXPECT_NE(csv.find("dataset,models/m.safetensors,data/"
-                     "x,test,,20,50.0000,40.8248,66.6667,3,1,2,,,,,,,,,1,0\n"),
+                     "x,test,,20,50.0000,40.8248,66.6667,3,1,2,,,,,,,,,1,0,0\n"),
             std::string::npos)
       << csv;
-  EXPECT_NE(csv.find("dataset,models/m.safetensors,data/x,test,,100,,,,0,1,2,,,,,,,,,1,0\n"),
+  EXPECT_NE(csv.find("dataset,models/m.safetensors,data/x,test,,100,,,,0,1,2,,,,,,,,,1,0,0\n"),
             std::string::npos)
       << csv;
   EXPECT_NE(csv.find("sequence,models/m.safetensors,data/x,test,a.h5,20,75.0000"),

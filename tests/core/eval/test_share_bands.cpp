@@ -1,9 +1,11 @@
 // Size bands (`spikems eval --share-bands`): each scored window carries the share of its input
 // events that are truly moving, and the summaries split the windows by it. Hand-made windows
-// with known shares, IoUs and detections; pooled sequences; bad edges.
+// with known shares, IoUs and detections; pooled sequences; bad edges. Also the moving-share
+// filter (`--min-moving-share`), which keeps the top band only.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 
 #include "core/eval/results.h"
 #include "core/eval/window_scorer.h"
@@ -146,6 +148,123 @@ TEST(ShareBands, EdgesMustIncreaseInsideZeroToHundred) {
   WindowScores w;
   w.add(MaskCounts{1, 1, 1}, 0.5);
   EXPECT_THROW(summarize(1000, {&w}, {}, {50, 5}), Error);
+}
+
+// The authors' window filter (`spikems eval --min-moving-share`): only windows in which a
+// given share of the input events moves are scored, the others with moving events counted as
+// filtered; the summaries and files carry the count; refusals.
+
+// Windows of shares 60 %, 50 %, 40 % and 0 % (nothing moves), each predicted {0, 1}: IoU 1/2
+// where G = {0}. P for the 50 % window is {0} alone (IoU 1), so the kept windows' mean tells
+// which were kept.
+EventStream four_windows() {
+  EventStream e;
+  e.sensor = SensorSize{4, 1};
+  add_window(e, 0, 6, 4);
+  add_window(e, 1, 5, 5);
+  add_window(e, 2, 4, 6);
+  add_window(e, 3, 0, 5);
+  e.push_back(4000, 3, 0, 1, 0);  // completes window 3
+  return e;
+}
+
+void add_frames(WindowScorer& s) {
+  s.add_frame(frame(0, {1, 1, 0, 0}));
+  s.add_frame(frame(1, {1, 0, 0, 0}));
+  s.add_frame(frame(2, {1, 1, 0, 0}));
+  s.add_frame(frame(3, {1, 1, 0, 0}));
+}
+
+TEST(MovingShareFilter, KeepsWindowsAtOrAboveTheShareAndCountsTheRest) {
+  const EventStream e = four_windows();
+  WindowScorer s(e.sensor, {1000});
+  s.track_moving_share(false);  // the filter needs the shares and turns them back on
+  s.min_moving_share(0.5);
+  s.add_events(e);
+  add_frames(s);
+  s.finish(4001);
+  const WindowScores& w = s.scores()[0];
+  ASSERT_EQ(w.windows(), 2u);   // 60 % and 50 % (the edge is kept, as the authors' `>` drops)
+  EXPECT_EQ(w.filtered(), 1u);  // 40 %
+  EXPECT_EQ(w.skipped(), 1u);   // nothing moving: skipped, not filtered
+  EXPECT_DOUBLE_EQ(w.moving_shares()[0], 0.6);
+  EXPECT_DOUBLE_EQ(w.moving_shares()[1], 0.5);
+  EXPECT_NEAR(w.mean_iou(), 0.75, 1e-12);  // (1/2 + 1) / 2
+
+  // Without the filter the same windows give three scored, none filtered.
+  WindowScorer all(e.sensor, {1000});
+  all.add_events(e);
+  add_frames(all);
+  all.finish(4001);
+  EXPECT_EQ(all.scores()[0].windows(), 3u);
+  EXPECT_EQ(all.scores()[0].filtered(), 0u);
+  EXPECT_NEAR(all.scores()[0].mean_iou(), (0.5 + 1 + 0.5) / 3, 1e-12);
+
+  // A threshold just above 50 % leaves the 60 % window only.
+  WindowScorer strict(e.sensor, {1000});
+  strict.min_moving_share(0.55);
+  strict.add_events(e);
+  add_frames(strict);
+  strict.finish(4001);
+  EXPECT_EQ(strict.scores()[0].windows(), 1u);
+  EXPECT_EQ(strict.scores()[0].filtered(), 2u);
+}
+
+TEST(MovingShareFilter, SummariesAndFilesCarryTheFilteredCount) {
+  const EventStream e = four_windows();
+  WindowScorer s(e.sensor, {1000});
+  s.min_moving_share(0.5);
+  s.add_events(e);
+  add_frames(s);
+  s.finish(4001);
+  const WindowSummary sum = summarize(1000, {&s.scores()[0], &s.scores()[0]});
+  EXPECT_EQ(sum.windows, 4u);
+  EXPECT_EQ(sum.filtered, 2u);
+  EXPECT_EQ(sum.skipped, 2u);
+  EXPECT_NEAR(sum.iou_mean, 75.0, 1e-9);
+
+  EvalResults r;
+  r.windows_us = {1000};
+  r.min_moving_share_pct = 50;
+  ModelResult m;
+  m.path = "m.safetensors";
+  DatasetResult d;
+  d.data = "data/x";
+  d.windows = {sum};
+  m.datasets = {d};
+  r.models = {m};
+  const auto j = results_json(r);
+  EXPECT_EQ(j["min_moving_share_pct"], 50.0);
+  EXPECT_EQ(j["models"][0]["datasets"][0]["windows"][0]["filtered_windows"], 2u);
+  EXPECT_TRUE(j["protocol"].contains("filtered"));
+  const std::string csv = results_csv(r);
+  EXPECT_NE(csv.find("output_gate_ms,filtered_windows\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",2\n"), std::string::npos) << csv;  // the count ends the row
+  const TextTable t = summary_table(r);
+  ASSERT_EQ(t.header.size(), 13u);
+  EXPECT_EQ(t.header[11], "filtered");
+  EXPECT_EQ(t.rows[0][11], "2");
+  EXPECT_NE(results_markdown(r).find("at least 50 %"), std::string::npos);
+
+  r.min_moving_share_pct = 0;  // off: no column, null in the file
+  EXPECT_EQ(summary_table(r).header.size(), 12u);
+  EXPECT_TRUE(results_json(r)["min_moving_share_pct"].is_null());
+}
+
+TEST(MovingShareFilter, RefusesBadSharesBoxesAndLateCalls) {
+  const EventStream e = four_windows();
+  WindowScorer s(e.sensor, {1000});
+  EXPECT_THROW(s.min_moving_share(1.0), Error);
+  EXPECT_THROW(s.min_moving_share(-0.1), Error);
+  auto boxes = std::make_shared<const BoxTruth>();
+  WindowScorer b(e.sensor, {1000});
+  b.use_boxes(boxes);
+  EXPECT_THROW(b.min_moving_share(0.5), Error);  // boxes give no share
+  WindowScorer b2(e.sensor, {1000});
+  b2.min_moving_share(0.5);
+  EXPECT_THROW(b2.use_boxes(boxes), Error);
+  s.add_events(e);
+  EXPECT_THROW(s.min_moving_share(0.5), Error);  // after the first events
 }
 
 }  // namespace
