@@ -207,7 +207,7 @@ void WindowScorer::score(size_t i, int64_t k) {
   if (auto n = l.n.find(k); n != l.n.end() && n->second[0] > 0)  // none counted with boxes
     share = double(n->second[1]) / double(n->second[0]);
   // A window with moving events below the share asked for is left out (its G is not empty:
-  // windows without moving events stay "skipped"). Filtered rows keep their filter's state,
+  // windows without moving events stay "skipped"). Kalman rows keep their filter's state,
   // which apply() above has updated already.
   if (min_share_ > 0 && c.truth > 0 && !(share >= min_share_))
     scores_[i].add_filtered();
