@@ -47,10 +47,9 @@ void add(CLI::App& app) {
       "averaging); the models must be snapshots of one network with identical settings "
       "(architecture, neurons, thresholds, output gate), else the first difference is named. "
       "Snapshots a few hundred steps apart can differ in how much they call moving; an "
-      "average over a window of them smooths that. The average keeps the first model's name and "
-      "training record, "
-      "drops its calibration and lists its sources in training.averaged_from: choose its "
-      "output threshold again with `spikems calibrate`.\n\n"
+      "average over a window of them smooths that. The average keeps the first model's name "
+      "and training record, drops its calibration and lists its sources in "
+      "training.averaged_from: choose its output threshold again with `spikems calibrate`.\n\n"
       "Example:\n"
       "  spikems average --model runs/x/val-step2500.safetensors runs/x/val-step2750.safetensors "
       "runs/x/model.safetensors --out runs/x/swa.safetensors");

@@ -50,7 +50,7 @@ void WindowScorer::use_boxes(std::shared_ptr<const BoxTruth> boxes) {
 void WindowScorer::track_moving_share(bool on) {
   if (have_origin_)
     fail("window scorer", "", "track_moving_share must come before the first events");
-  shares_ = on || min_share_ > 0;  // a moving-share filter needs the shares
+  shares_ = on;
 }
 
 void WindowScorer::min_moving_share(double fraction) {
@@ -60,7 +60,6 @@ void WindowScorer::min_moving_share(double fraction) {
   if (fraction > 0 && boxes_)
     fail("window scorer", "", "a moving-share filter needs labelled events, not boxes");
   min_share_ = fraction;
-  if (fraction > 0) shares_ = true;
 }
 
 void WindowScorer::gate_by_events(bool on) {
@@ -96,7 +95,7 @@ void WindowScorer::add_events(const EventStream& c) {
     if (t < last_t_) fail_at_event("window scorer", events_seen_ + i, "time goes back");
     last_t_ = t;
     const bool moving = !boxes_ && c.label[i] != 0;  // with boxes, G comes from them (score)
-    if (shares_ && !boxes_)
+    if ((shares_ || min_share_ > 0) && !boxes_)      // the filter needs the shares too
       for (PerLength& l : lengths_) {
         if (l.n_index < 0 || t >= l.n_end) {  // time-ordered: the window changes rarely
           l.n_index = (t - origin_) / l.window_us;

@@ -95,8 +95,9 @@ class WindowScorer {
 
   // Scores only the windows whose moving share is at least `fraction` (0-1); the others with
   // a non-empty G are counted as filtered (WindowScores::filtered). This is the SpikeMS
-  // authors' test filter (docs/evaluation.md, "The authors' window filter"). Turns the share
-  // tracking on; refused with boxes (no share). 0 = off. Call before the first events.
+  // authors' test filter (docs/evaluation.md, "The authors' window filter"). The shares are
+  // counted for it whatever track_moving_share says; refused with boxes (no share). 0 = off.
+  // Call before the first events.
   void min_moving_share(double fraction);
 
   // One per length, in the order given: the plain lengths, then the filtered ones.
