@@ -22,9 +22,9 @@ struct Args {
   std::string windows = "20,100", split = "test", out, kalman, boxes, thresholds, gates,
               share_bands = "2,10";
   std::vector<std::string> models, data, baselines;
-  int threads = 1;
+  int threads = 1, group_windows = 1;
   bool iir = false, quiet = false, gate_events = false, static_scene = false;
-  double max_seconds = 0, min_moving_share = 0;
+  double max_seconds = 0, min_moving_share = 0, keep_events = 1;
 };
 
 // "2,10" -> {2, 10}; "none" -> {} (no band rows). Errors name the option and the item.
@@ -74,6 +74,8 @@ void run(const Args& a) {
   o.static_scene = a.static_scene;
   o.share_bands_pct = parse_share_bands(a.share_bands);
   o.min_moving_share_pct = a.min_moving_share;
+  o.group_windows = a.group_windows;
+  o.keep_events = a.keep_events;
   o.max_seconds = a.max_seconds;
   o.progress = !a.quiet;
   o.command_line = cli::invoked_command();
@@ -188,6 +190,17 @@ void add(CLI::App& app) {
                   "test filter on MOD (test.py --maxBackgroundRatio 2: at most 2 events per "
                   "moving event), 33.3 on EV-IMO (2 background events per moving one); "
                   "docs/evaluation.md, \"The authors' window filter\"");
+  cmd->add_option("--group-windows", a.group_windows,
+                  "Score windows in groups of N consecutive ones: IoU and detection of the "
+                  "unions of P and G over a group's scored windows, counted once per window. "
+                  "8 with --min-moving-share 50 is the SpikeMS authors' whole test (an IoU "
+                  "over each batch of 8 samples); 1 = each window alone")
+      ->capture_default_str();
+  cmd->add_option("--keep-events", a.keep_events,
+                  "Thin every sequence first, keeping each event with probability F (a fixed "
+                  "seed: the same events every run), labels and all: how a model holds up when "
+                  "a sensor gives fewer events (higher contrast threshold, slower motion)")
+      ->capture_default_str();
   cmd->add_flag("--iir", a.iir,
                 "Run FIR layers with the exact recursions of the same neurons (faster; spikes "
                 "close to but not identical with the FIR model)");

@@ -401,6 +401,77 @@ TEST_F(EvalCli, MinMovingShareScoresTheTopBandOnly) {
   EXPECT_NE(out.find("--static-scene"), std::string::npos) << out;
 }
 
+// --group-windows: the same windows are scored (counts unchanged), 1 is the plain score, and
+// the files say the group size; bad sizes and static scenes are refused.
+TEST_F(EvalCli, GroupWindowsKeepsTheWindowCountsAndOneIsThePlainScore) {
+  const std::string o = dir_ + "/out_groups";
+  std::string out;
+  for (const char* g : {"1", "4"})
+    ASSERT_EQ(run_command(eval("--data " + data() + " --split all --windows 10,50 " +
+                               "--group-windows " + g + " --out " + o + g),
+                          &out),
+              0)
+        << out;
+  ASSERT_EQ(run_command(eval("--data " + data() + " --split all --windows 10,50 --out " + o), &out),
+            0)
+      << out;
+  const auto plain = nlohmann::json::parse(slurp(o + "/results.json"));
+  const auto one = nlohmann::json::parse(slurp(o + "1/results.json"));
+  const auto four = nlohmann::json::parse(slurp(o + "4/results.json"));
+  EXPECT_EQ(plain["group_windows"], 1);
+  EXPECT_EQ(four["group_windows"], 4);
+  const auto& pw = plain["models"][0]["datasets"][0]["windows"];
+  const auto& ow = one["models"][0]["datasets"][0]["windows"];
+  const auto& fw = four["models"][0]["datasets"][0]["windows"];
+  ASSERT_EQ(fw.size(), 2u);
+  for (size_t i = 0; i < pw.size(); ++i) {
+    EXPECT_EQ(ow[i]["iou_mean"], pw[i]["iou_mean"]) << i;
+    EXPECT_EQ(fw[i]["windows"], pw[i]["windows"]) << i;
+    EXPECT_EQ(fw[i]["skipped_windows"], pw[i]["skipped_windows"]) << i;
+    EXPECT_EQ(fw[i]["event_counts"], pw[i]["event_counts"]) << i;
+  }
+  EXPECT_NE(slurp(o + "4/results.md").find("groups of 4 consecutive"), std::string::npos);
+  for (const char* bad : {"0", "10001"}) {
+    EXPECT_EQ(run_command(eval("--data " + data() + " --group-windows " + bad), &out), 1) << bad;
+    EXPECT_NE(out.find("--group-windows"), std::string::npos) << bad << ": " << out;
+  }
+  EXPECT_NE(run_command(eval("--data " + data() + " --group-windows x"), &out), 0);
+  EXPECT_EQ(
+      run_command(eval("--data " + data() + " --split all --static-scene --group-windows 8"), &out),
+      1);
+  EXPECT_NE(out.find("--static-scene"), std::string::npos) << out;
+}
+
+// --keep-events: every sequence is thinned before it is scored (about the share asked for,
+// the same events on every run), and the files say so; bad shares are refused.
+TEST_F(EvalCli, KeepEventsThinsTheDataRepeatably) {
+  const std::string o = dir_ + "/out_keep";
+  std::string out;
+  const std::string base = "--data " + data() + " --split all --windows 10 --baseline all-events ";
+  ASSERT_EQ(run_command(eval(base + "--out " + o + "all"), &out), 0) << out;
+  for (const char* r : {"a", "b"})
+    ASSERT_EQ(run_command(eval(base + "--keep-events 0.5 --out " + o + r), &out), 0) << out;
+  const auto all = nlohmann::json::parse(slurp(o + "all/results.json"));
+  const auto a = nlohmann::json::parse(slurp(o + "a/results.json"));
+  const auto b = nlohmann::json::parse(slurp(o + "b/results.json"));
+  EXPECT_EQ(all["keep_events"], 1.0);
+  EXPECT_EQ(a["keep_events"], 0.5);
+  auto total = [](const nlohmann::json& j) {  // the baseline's events: every one it was given
+    const auto& c = j["models"][1]["datasets"][0]["windows"][0]["event_counts"];
+    return c["tp"].get<double>() + c["fp"].get<double>() + c["fn"].get<double>() +
+           c["tn"].get<double>();
+  };
+  const double n = total(all), k = total(a);
+  ASSERT_GT(n, 2000);
+  EXPECT_NEAR(k, n / 2, 5 * std::sqrt(n / 4)) << k << " of " << n;  // binomial, 5 sd
+  EXPECT_EQ(a["models"], b["models"]);  // the same events, the same scores
+  EXPECT_NE(slurp(o + "a/results.md").find("kept with probability 0.5"), std::string::npos);
+  for (const char* bad : {"0", "1.5", "-1"}) {
+    EXPECT_EQ(run_command(eval("--data " + data() + " --keep-events " + bad), &out), 1) << bad;
+    EXPECT_NE(out.find("--keep-events"), std::string::npos) << bad << ": " << out;
+  }
+}
+
 // --static-scene: an unlabelled recording of a static scene; every event is background and the
 // score is the share of events each model labels moving.
 TEST_F(EvalCli, StaticSceneScoresTheShareOfEventsCalledMoving) {

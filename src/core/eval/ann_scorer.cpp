@@ -46,6 +46,7 @@ SequenceScore score_ann_sequence(const ModelSpec& model, const LabelledSequence&
     scorer.use_boxes(opt.boxes);
     scorer.track_moving_share(opt.moving_share);
     scorer.min_moving_share(opt.min_moving_share);
+    scorer.group_windows(opt.group_windows);
     EventTally tally(t0, L);
     scorer.add_events(scored);
     PredictionFrame f;

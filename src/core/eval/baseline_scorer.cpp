@@ -21,6 +21,7 @@ SequenceScore score_all_events(const LabelledSequence& seq, const std::vector<in
   scorer.use_boxes(opt.boxes);
   scorer.track_moving_share(opt.moving_share);
   scorer.min_moving_share(opt.min_moving_share);
+  scorer.group_windows(opt.group_windows);
   EventTally tally(t0, scorer.frame_us());  // every event predicted moving
   const int64_t F = scorer.frame_us();
   PredictionFrame f;

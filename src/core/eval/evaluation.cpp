@@ -7,6 +7,7 @@
 #include "core/eval/baseline_scorer.h"
 #include "core/eval/boxes.h"
 #include "core/eval/sequence_scorer.h"
+#include "core/events/event_ops.h"
 #include "core/model/output_gate.h"
 #include "core/model/output_threshold.h"
 #include "core/util/error.h"
@@ -70,6 +71,15 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
     fail("--min-moving-share", "",
          "filters windows by their labelled moving events: it takes neither --static-scene nor "
          "--boxes");
+  if (!(opt.keep_events > 0 && opt.keep_events <= 1))
+    fail("--keep-events", fmt("%g", opt.keep_events),
+         "must be the share of events kept, in (0, 1], e.g. 0.25");
+  if (opt.group_windows < 1 || opt.group_windows > 10000)
+    fail("--group-windows", std::to_string(opt.group_windows),
+         "must be a whole number of windows in [1, 10000], e.g. 8 (the authors' test)");
+  if (opt.group_windows > 1 && opt.static_scene)
+    fail("--group-windows", "",
+         "groups windows with moving objects: a static scene has none (drop --static-scene)");
   const std::vector<double> scales =
       opt.output_thresholds.empty() ? std::vector<double>{1.0} : opt.output_thresholds;
   std::vector<ModelSpec> models;
@@ -163,6 +173,9 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   so.moving_share = !opt.share_bands_pct.empty();
   so.min_moving_share = opt.min_moving_share_pct / 100.0;
   r.min_moving_share_pct = opt.min_moving_share_pct;
+  so.group_windows = opt.group_windows;
+  r.group_windows = opt.group_windows;
+  r.keep_events = opt.keep_events;
   r.label_tolerance_steps = so.label_tolerance_steps;
   so.max_us = opt.max_seconds > 0 ? int64_t(opt.max_seconds * 1e6 + 0.5) : 0;
   size_t done = 0;
@@ -185,6 +198,7 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
         boxes->check_sensor(seq.events.sensor);
         boxes->label(seq.events);
       }
+      if (opt.keep_events < 1) seq.events = thin_events(seq.events, opt.keep_events);
       const uint64_t n = seq.events.size();
       // The report's windows come from this same pass (no second run).
       so.capture_windows.clear();

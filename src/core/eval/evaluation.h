@@ -47,6 +47,14 @@ struct EvalOptions {
   // scored (the SpikeMS authors' test filter; WindowScorer::min_moving_share); the others are
   // counted as filtered. Needs labels: refused with boxes and static scenes.
   double min_moving_share_pct = 0;
+  // > 1: windows scored in groups of so many consecutive ones, P and G the unions over the
+  // group's kept windows, its IoU weighted by them (the SpikeMS authors' test, with 8;
+  // WindowScorer::group_windows). Refused with static scenes.
+  int group_windows = 1;
+  // < 1: each sequence is thinned first, every event kept with this probability
+  // (thin_events, seed 0: the same events on every run), labels and all: how the scores hold
+  // up when a sensor gives fewer events. 1 = every event.
+  double keep_events = 1;
   double max_seconds = 0;    // > 0: only the first max_seconds of each sequence
   bool progress = false;     // progress bar on stderr
   std::string command_line;  // recorded in the results

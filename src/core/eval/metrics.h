@@ -35,6 +35,11 @@ class WindowScores {
   void add(const MaskCounts& c, double moving_share = kUnknownShare);
   // A window left out by a moving-share filter (WindowScorer::min_moving_share): counted only.
   void add_filtered() { ++filtered_; }
+  // A group of `windows` windows scored together (WindowScorer::group_windows): c counts
+  // the unions of their P and G; the group's IoU and detection count once per window.
+  void add_group(const MaskCounts& c, double moving_share, size_t windows) {
+    for (size_t i = 0; i < windows; ++i) add(c, moving_share);
+  }
   size_t windows() const { return ious_.size(); }
   size_t skipped() const { return skipped_; }
   size_t filtered() const { return filtered_; }

@@ -136,6 +136,14 @@ std::string write_report(const EvalResults& r, const EvalExamples& ex, const std
     page.paragraph("Only windows in which at least " + fmt("%g", r.min_moving_share_pct) +
                    " % of the input events are truly moving are scored (the SpikeMS authors' "
                    "test filter); the others are counted as filtered.");
+  if (r.keep_events < 1)
+    page.paragraph("Every sequence thinned first: each event kept with probability " +
+                   fmt("%g", r.keep_events) + " (seed 0), labels and all.");
+  if (r.group_windows > 1)
+    page.paragraph("Windows scored in groups of " + std::to_string(r.group_windows) +
+                   " consecutive ones: IoU and detection of the unions of P and G over a "
+                   "group's scored windows, counted once per window (the SpikeMS authors' "
+                   "test).");
   if (r.interrupted)
     page.paragraph("Interrupted (Ctrl-C): only the sequences finished before it are in.");
   const std::string g = r.boxes.empty() ? "pixels with moving-object events"

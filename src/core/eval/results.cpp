@@ -318,6 +318,8 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
   j["min_moving_share_pct"] = r.min_moving_share_pct > 0
                                   ? nlohmann::ordered_json(r.min_moving_share_pct)
                                   : nlohmann::ordered_json(nullptr);
+  j["group_windows"] = r.group_windows;
+  j["keep_events"] = r.keep_events;
   j["protocol"] = {
       {"window_start", "first event of each sequence"},
       {"partial_last_window", "dropped"},
@@ -330,7 +332,11 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
                     ? "pixels with input events labelled moving (label != 0) in the window"
                     : "pixels inside the boxes (file `boxes`) valid at some time in the window; "
                       "an event is truly moving when it lies in a box valid at its time"},
-      {"iou", "|P and G| / |P or G| per window; mean and population std over windows"},
+      {"iou", r.group_windows > 1
+                  ? "|P and G| / |P or G| per group of group_windows consecutive windows, P and "
+                    "G the unions over the group's scored windows (the SpikeMS authors' test); "
+                    "each group counts once per scored window in the mean and population std"
+                  : "|P and G| / |P or G| per window; mean and population std over windows"},
       {"detection", "0-MMS: |P and G| > 0.5 |G| and |P and G| > |P - G|"},
       {"skipped", "windows whose G is empty are not scored, only counted"},
       {"filtered",
@@ -530,6 +536,13 @@ std::string results_markdown(const EvalResults& r) {
     out += "- only windows in which at least " + fmt("%g", r.min_moving_share_pct) +
            " % of the input events are truly moving are scored (the SpikeMS authors' test "
            "filter; the others are counted as `filtered`)\n";
+  if (r.keep_events < 1)
+    out += "- every sequence thinned first: each event kept with probability " +
+           fmt("%g", r.keep_events) + " (seed 0), labels and all\n";
+  if (r.group_windows > 1)
+    out += "- windows scored in groups of " + std::to_string(r.group_windows) +
+           " consecutive ones: IoU and detection of the unions of P and G over a group's "
+           "scored windows, counted once per window (the SpikeMS authors' test)\n";
   if (r.interrupted) out += "- **interrupted**: the sequences finished before Ctrl-C only\n";
   const std::string g = r.boxes.empty() ? "pixels with moving-object events"
                                         : "pixels inside the boxes valid in the window";

@@ -105,6 +105,8 @@ struct EvalResults {
   bool static_scene = false;       // every event background (EvalOptions::static_scene)
   std::vector<double> share_bands_pct = kDefaultShareBandsPct;  // EvalOptions::share_bands_pct
   double min_moving_share_pct = 0;  // EvalOptions::min_moving_share_pct; 0 = every window
+  int group_windows = 1;            // EvalOptions::group_windows; 1 = each window alone
+  double keep_events = 1;           // EvalOptions::keep_events; 1 = every event
   std::vector<ModelResult> models;
 };
 

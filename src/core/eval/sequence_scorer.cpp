@@ -108,6 +108,7 @@ SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq
   scorer.use_boxes(opt.boxes);
   scorer.track_moving_share(opt.moving_share);
   scorer.min_moving_share(opt.min_moving_share);
+  scorer.group_windows(opt.group_windows);
   EventTally tally(t0, scorer.frame_us());
   SegmenterOptions so;
   so.mask_window_us = scorer.frame_us();

@@ -47,6 +47,9 @@ struct SequenceScoreOptions {
   // > 0: only windows with at least this fraction of their input events truly moving are
   // scored, the others counted as filtered (WindowScorer::min_moving_share).
   double min_moving_share = 0;
+  // > 1: windows scored in groups of so many consecutive ones, P and G united over the kept
+  // windows of a group (WindowScorer::group_windows; the SpikeMS authors' test).
+  int group_windows = 1;
 };
 
 struct SequenceScore {

@@ -62,6 +62,12 @@ void WindowScorer::min_moving_share(double fraction) {
   min_share_ = fraction;
 }
 
+void WindowScorer::group_windows(int n) {
+  if (have_origin_) fail("window scorer", "", "group_windows must come before the first events");
+  if (n < 1) fail("window scorer", "", "a group must hold at least one window");
+  group_ = n;
+}
+
 void WindowScorer::gate_by_events(bool on) {
   if (have_origin_) fail("window scorer", "", "gate_by_events must come before the first events");
   gate_ = on;
@@ -178,14 +184,16 @@ void WindowScorer::score(size_t i, int64_t k) {
   }
   auto g = l.g.find(k);
   auto p = l.p.find(k);
+  if (zeros_.empty()) zeros_.assign(size_t(sensor_.width) * size_t(sensor_.height), 0);
+  const std::vector<uint8_t>* pm = p != l.p.end() ? &p->second : &zeros_;  // P as scored
   MaskCounts c;  // no G: skipped by WindowScores whatever was predicted
   if (l.filter) {
     // Every window goes through the filter (it keeps state), then P as it rewrote it.
-    if (zeros_.empty()) zeros_.assign(size_t(sensor_.width) * size_t(sensor_.height), 0);
-    filtered_p_ = p != l.p.end() ? p->second : zeros_;
+    filtered_p_ = *pm;
     auto e = l.e.find(k);
     const int64_t t0 = origin_ + k * l.window_us;
     l.filter->apply(t0, t0 + l.window_us, filtered_p_, e != l.e.end() ? e->second : zeros_);
+    pm = &filtered_p_;
     if (g != l.g.end()) c = count_masks(filtered_p_, g->second);
   } else if (g != l.g.end()) {
     if (p != l.p.end() && gate_) {
@@ -194,13 +202,8 @@ void WindowScorer::score(size_t i, int64_t k) {
       if (e != l.e.end())
         for (size_t j = 0; j < gated_p_.size(); ++j) gated_p_[j] = p->second[j] & e->second[j];
       p->second.swap(gated_p_);  // the captured window shows the gated P too
-      c = count_masks(p->second, g->second);
-    } else if (p != l.p.end()) {
-      c = count_masks(p->second, g->second);
-    } else {
-      if (zeros_.empty()) zeros_.assign(g->second.size(), 0);
-      c = count_masks(zeros_, g->second);
     }
+    c = count_masks(*pm, g->second);
   }
   double share = WindowScores::kUnknownShare;
   if (auto n = l.n.find(k); n != l.n.end() && n->second[0] > 0)  // none counted with boxes
@@ -208,10 +211,22 @@ void WindowScorer::score(size_t i, int64_t k) {
   // A window with moving events below the share asked for is left out (its G is not empty:
   // windows without moving events stay "skipped"). Kalman rows keep their filter's state,
   // which apply() above has updated already.
-  if (min_share_ > 0 && c.truth > 0 && !(share >= min_share_))
+  const bool filtered = min_share_ > 0 && c.truth > 0 && !(share >= min_share_);
+  if (group_ > 1) {
+    if (k / group_ != l.group) close_group(i);  // a group without its last window scored
+    l.group = k / group_;
+    if (filtered)
+      scores_[i].add_filtered();
+    else if (c.truth == 0)
+      scores_[i].add(c, share);  // counted as skipped
+    else
+      add_to_group(i, k, *pm, g->second);
+    if (k % group_ == group_ - 1) close_group(i);
+  } else if (filtered) {
     scores_[i].add_filtered();
-  else
+  } else {
     scores_[i].add(c, share);
+  }
   if (i == capture_length_ &&
       std::binary_search(capture_indices_.begin(), capture_indices_.end(), k)) {
     CapturedWindow w;
@@ -246,6 +261,35 @@ void WindowScorer::score(size_t i, int64_t k) {
   }
 }
 
+void WindowScorer::add_to_group(size_t i, int64_t k, const std::vector<uint8_t>& p,
+                                const std::vector<uint8_t>& g) {
+  PerLength& l = lengths_[i];
+  if (l.group_p.empty()) {
+    l.group_p.assign(p.size(), 0);
+    l.group_g.assign(g.size(), 0);
+  }
+  for (size_t j = 0; j < p.size(); ++j) l.group_p[j] |= p[j] != 0;
+  for (size_t j = 0; j < g.size(); ++j) l.group_g[j] |= g[j] != 0;
+  ++l.group_kept;
+  if (auto n = l.n.find(k); n != l.n.end()) {
+    l.group_n[0] += n->second[0];
+    l.group_n[1] += n->second[1];
+  }
+}
+
+void WindowScorer::close_group(size_t i) {
+  PerLength& l = lengths_[i];
+  if (l.group_kept > 0) {
+    const double share = l.group_n[0] > 0 ? double(l.group_n[1]) / double(l.group_n[0])
+                                          : WindowScores::kUnknownShare;
+    scores_[i].add_group(count_masks(l.group_p, l.group_g), share, l.group_kept);
+    std::fill(l.group_p.begin(), l.group_p.end(), 0);
+    std::fill(l.group_g.begin(), l.group_g.end(), 0);
+  }
+  l.group_kept = 0;
+  l.group_n = {0, 0};
+}
+
 void WindowScorer::finish(int64_t end_us, bool keep_partial) {
   if (finished_) return;
   finished_ = true;
@@ -257,6 +301,7 @@ void WindowScorer::finish(int64_t end_us, bool keep_partial) {
                       : keep_partial ? (span + l.window_us - 1) / l.window_us
                                      : span / l.window_us;
     while (l.next < n) score(i, l.next++);
+    close_group(i);  // the last group may be short (the authors' last batch is too)
     l.p.clear();
     l.g.clear();
     l.e.clear();

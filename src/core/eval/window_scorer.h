@@ -100,6 +100,15 @@ class WindowScorer {
   // Call before the first events.
   void min_moving_share(double fraction);
 
+  // Scores the windows of each length in groups of n consecutive ones (group j = windows
+  // j n .. j n + n - 1 from the origin): the kept windows of a group (G not empty, not
+  // filtered) are scored together, P and G the unions of theirs, and the group's IoU and
+  // detection count once per kept window, so the mean is weighted by them. This is the SpikeMS
+  // authors' test (an IoU over the sum of a batch of 8 consecutive samples, averaged with the
+  // batch's size as its weight; docs/evaluation.md). The group's moving share pools its kept
+  // windows' events. 1 = every window alone (the default). Call before the first events.
+  void group_windows(int n);
+
   // One per length, in the order given: the plain lengths, then the filtered ones.
   const std::vector<WindowScores>& scores() const { return scores_; }
 
@@ -125,10 +134,20 @@ class WindowScorer {
     std::map<int64_t, std::array<uint64_t, 2>> n;
     int64_t n_index = -1, n_end = 0;  // cache: the window n_counts belongs to, its end (µs)
     std::array<uint64_t, 2>* n_counts = nullptr;
+    // group_windows: the open group, the unions of its kept windows' P and G, how many were
+    // kept and their input events {all, truly moving}.
+    int64_t group = -1;
+    std::vector<uint8_t> group_p, group_g;
+    size_t group_kept = 0;
+    std::array<uint64_t, 2> group_n{0, 0};
   };
   std::vector<uint8_t>& mask_of(std::map<int64_t, std::vector<uint8_t>>& m, int64_t k);
   void score_ready(size_t length);
   void score(size_t length, int64_t k);
+  // Adds a kept window's P and G to its group's unions (group_windows).
+  void add_to_group(size_t length, int64_t k, const std::vector<uint8_t>& p,
+                    const std::vector<uint8_t>& g);
+  void close_group(size_t length);  // scores the open group, if it kept any window
 
   SensorSize sensor_;
   std::vector<int64_t> windows_;
@@ -150,6 +169,7 @@ class WindowScorer {
   bool gate_ = false;                      // P ∩ E for the plain lengths
   bool shares_ = true;                     // track_moving_share
   double min_share_ = 0;                   // min_moving_share
+  int group_ = 1;                          // group_windows
   std::shared_ptr<const BoxTruth> boxes_;  // G from boxes when set
   std::vector<uint8_t> gated_p_;           // scratch
 };

@@ -51,6 +51,30 @@ EventStream remap_events(const EventStream& ev, const BinningConfig& cfg) {
   return out;
 }
 
+EventStream thin_events(const EventStream& ev, double keep, uint64_t seed) {
+  if (!(keep > 0 && keep <= 1))
+    fail("thin events", "", "the share of events kept must lie in (0, 1]");
+  if (keep == 1) return ev;
+  // SplitMix64 of (seed, index): a counter-based draw, no generator state to carry.
+  auto draw = [seed](uint64_t i) {
+    uint64_t z = seed * 0x9E3779B97F4A7C15ull + (i + 1) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return double((z ^ (z >> 31)) >> 11) * 0x1.0p-53;  // uniform in [0, 1)
+  };
+  EventStream out;
+  out.sensor = ev.sensor;
+  out.reserve(size_t(double(ev.size()) * keep * 1.01) + 16);
+  for (size_t i = 0; i < ev.size(); ++i) {
+    if (draw(i) >= keep) continue;
+    if (ev.has_labels())
+      out.push_back(ev.t[i], ev.x[i], ev.y[i], ev.p[i], ev.label[i]);
+    else
+      out.push_back(ev.t[i], ev.x[i], ev.y[i], ev.p[i]);
+  }
+  return out;
+}
+
 BinningConfig centred_crop(SensorSize sensor, double cx, double cy, int w, int h,
                            const BinningConfig& base) {
   if (!sensor.known()) fail("crop", "", "sensor size unknown");

@@ -27,6 +27,12 @@ BinningConfig centred_crop(SensorSize sensor, double cx, double cy, int w, int h
 bool foreground_centroid(const EventStream& ev, int64_t t0, int64_t t1,
                          const std::vector<uint16_t>& moving_ids, double& cx, double& cy);
 
+// Keeps each event with probability `keep` (0 < keep <= 1), independently, as a sensor that
+// gives fewer events would (a higher contrast threshold, slower motion): the draw for event i
+// depends only on (seed, i), so the result is the same on every machine and run. Labels and
+// the sensor are kept. Throws Error for keep outside (0, 1].
+EventStream thin_events(const EventStream& ev, double keep, uint64_t seed = 0);
+
 // Refractory filter: drops an event when the same pixel (either polarity) had a KEPT event
 // less than period_us before it. Needs a known sensor size. The class keeps its per-pixel state
 // between chunks, so a stream filtered chunk by chunk gives the same result as in one piece.

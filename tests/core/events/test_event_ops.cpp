@@ -1,5 +1,8 @@
-// Geometry remapping, centred crops, centroids and the two denoising filters on hand-made events.
+// Geometry remapping, centred crops, centroids, the two denoising filters and thinning on
+// hand-made events.
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "core/events/event_ops.h"
 #include "core/util/error.h"
@@ -128,4 +131,42 @@ TEST(EventOps, FiltersGiveTheSameResultChunkByChunk) {
   EXPECT_LT(whole_ba.size(), ev.size());
   EXPECT_GT(whole_rf.size(), 0u);
   EXPECT_LT(whole_rf.size(), ev.size());
+}
+
+TEST(EventOps, ThinningKeepsTheAskedShareRepeatably) {
+  EventStream ev;
+  ev.sensor = {64, 48};
+  const size_t n = 200000;
+  for (size_t i = 0; i < n; ++i)
+    ev.push_back(int64_t(i), uint16_t(i % 64), uint16_t(i / 64 % 48), uint8_t(i % 2),
+                 uint16_t(i % 3 == 0));
+  for (double keep : {0.5, 0.25, 0.1}) {
+    const EventStream a = thin_events(ev, keep);
+    // Binomial(n, keep): 5 standard deviations is ~0.1-0.2 % of n here.
+    const double sd = std::sqrt(double(n) * keep * (1 - keep));
+    EXPECT_NEAR(double(a.size()), double(n) * keep, 5 * sd) << keep;
+    EXPECT_EQ(a.sensor.width, 64);
+    ASSERT_TRUE(a.has_labels());
+    // Each kept event is an input event unchanged (time = index here), in order; the labelled
+    // share is kept too.
+    size_t labelled = 0;
+    for (size_t i = 0; i < a.size(); ++i) {
+      const size_t j = size_t(a.t[i]);
+      ASSERT_LT(j, n);
+      if (i) ASSERT_GT(a.t[i], a.t[i - 1]);
+      EXPECT_EQ(a.x[i], ev.x[j]);
+      EXPECT_EQ(a.y[i], ev.y[j]);
+      EXPECT_EQ(a.p[i], ev.p[j]);
+      EXPECT_EQ(a.label[i], ev.label[j]);
+      labelled += a.label[i];
+    }
+    EXPECT_NEAR(double(labelled) / double(a.size()), 1.0 / 3.0, 0.01) << keep;
+    // The same seed gives the same events; another seed others.
+    EXPECT_EQ(thin_events(ev, keep).t, a.t);
+    EXPECT_NE(thin_events(ev, keep, 7).t, a.t);
+  }
+  // 1 keeps everything.
+  EXPECT_EQ(thin_events(ev, 1.0).size(), n);
+  for (double bad : {0.0, -0.5, 1.5, std::nan("")})
+    EXPECT_THROW(thin_events(ev, bad), Error) << bad;
 }
