@@ -213,8 +213,8 @@ void WindowScorer::score(size_t i, int64_t k) {
   // which apply() above has updated already.
   const bool filtered = min_share_ > 0 && c.truth > 0 && !(share >= min_share_);
   if (group_ > 1) {
-    if (k / group_ != l.group) close_group(i);  // a group without its last window scored
-    l.group = k / group_;
+    // Windows are scored one after another (score_ready, finish), so a group is closed by its
+    // last window or by finish().
     if (filtered)
       scores_[i].add_filtered();
     else if (c.truth == 0)

@@ -134,9 +134,8 @@ class WindowScorer {
     std::map<int64_t, std::array<uint64_t, 2>> n;
     int64_t n_index = -1, n_end = 0;  // cache: the window n_counts belongs to, its end (µs)
     std::array<uint64_t, 2>* n_counts = nullptr;
-    // group_windows: the open group, the unions of its kept windows' P and G, how many were
-    // kept and their input events {all, truly moving}.
-    int64_t group = -1;
+    // group_windows: the unions of the open group's kept windows' P and G, how many were kept
+    // and their input events {all, truly moving}.
     std::vector<uint8_t> group_p, group_g;
     size_t group_kept = 0;
     std::array<uint64_t, 2> group_n{0, 0};
