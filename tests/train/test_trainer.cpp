@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -996,6 +997,42 @@ TEST(Trainer, PerLayerRateBoundsEnterTheActivityTerm) {
   }
   EXPECT_GT(over_ceiling, 0) << "no layer fired above its ceiling: that part tested nothing";
   EXPECT_GT(under_floor, 0) << "no layer fired below its floor: that part tested nothing";
+}
+
+// loss.synops_weight: every line logs the SynOps per input event; with the linear form the
+// activity term is w x that / 1000 (the other sparsity terms off), and the penalised run does
+// less work per event than the same run without it.
+TEST(Trainer, SynopsPenaltyIsLoggedAndLowersTheWorkPerEvent) {
+  auto base = tiny_overrides(12);
+  for (const char* k : {"loss.activity_weight=0.0", "loss.floor_weight=0.0"}) base.push_back(k);
+  const std::string free_dir = scratch_dir() + "/free", paid_dir = scratch_dir() + "/paid";
+  EXPECT_EQ(train_quietly(base, free_dir).steps, 12);
+  auto paid = base;
+  paid.push_back("loss.synops_weight=30.0");
+  EXPECT_EQ(train_quietly(paid, paid_dir).steps, 12);
+  const auto free_lines = read_log(free_dir, "train"), paid_lines = read_log(paid_dir, "train");
+  ASSERT_EQ(free_lines.size(), 12u);
+  ASSERT_EQ(paid_lines.size(), 12u);
+  double free_late = 0, paid_late = 0;
+  for (size_t i = 0; i < 12; ++i) {
+    ASSERT_TRUE(paid_lines[i].contains("synops_per_event")) << paid_lines[i].dump();
+    const double sope = paid_lines[i]["synops_per_event"].get<double>();
+    EXPECT_GT(sope, 0.0);
+    // Logged to 0.1: 30 x 0.05 / 1000 of rounding.
+    EXPECT_NEAR(paid_lines[i]["activity"].get<double>(), 30.0 * sope / 1000, 2e-3)
+        << "step " << i + 1;
+    EXPECT_EQ(free_lines[i]["activity"].get<double>(), 0.0);
+    if (i >= 8) {
+      free_late += free_lines[i]["synops_per_event"].get<double>();
+      paid_late += sope;
+    }
+  }
+  // The first step is the same network on the same batch.
+  EXPECT_NEAR(paid_lines[0]["synops_per_event"].get<double>(),
+              free_lines[0]["synops_per_event"].get<double>(), 0.11);
+  std::printf("SynOps per event, steps 9-12: %.1f without the penalty, %.1f with it\n",
+              free_late / 4, paid_late / 4);
+  EXPECT_LT(paid_late, 0.9 * free_late) << "the penalty did not lower the work per event";
 }
 
 // loss.offevent_weight: the term is logged and enters the loss with its weight (the loss is the

@@ -8,6 +8,7 @@
 
 #include "core/util/error.h"
 #include "train/neuron/psp.h"
+#include "train/synapse/conv_taps.h"
 
 namespace spikems::train {
 
@@ -33,9 +34,7 @@ struct Frame {
   int64_t ci, h, w, co, ho, wo, k;
 };
 
-// For every input coordinate, the (output coordinate, kernel tap) pairs it reaches:
-//   conv:             in = out * stride - pad + tap
-//   transposed conv:  out = in * stride - pad + tap
+// For every input coordinate, the (output coordinate, kernel tap) pairs it reaches (conv_taps.h).
 struct Taps {
   std::vector<std::array<int32_t, 2>> pairs;  // (out, tap)
   std::vector<int32_t> begin;                 // pairs of input i: [begin[i], begin[i+1])
@@ -46,15 +45,8 @@ Taps make_taps(int64_t in, int64_t out, int64_t k, int64_t stride, int64_t pad, 
   t.begin.push_back(0);
   for (int64_t i = 0; i < in; ++i) {
     for (int64_t tap = 0; tap < k; ++tap) {
-      int64_t o;
-      if (transposed) {
-        o = i * stride - pad + tap;
-      } else {
-        const int64_t num = i + pad - tap;
-        if (num < 0 || num % stride != 0) continue;
-        o = num / stride;
-      }
-      if (o >= 0 && o < out) t.pairs.push_back({int32_t(o), int32_t(tap)});
+      const int64_t o = tap_output(i, tap, stride, pad, transposed, out);
+      if (o >= 0) t.pairs.push_back({int32_t(o), int32_t(tap)});
     }
     t.begin.push_back(int32_t(t.pairs.size()));
   }

@@ -291,6 +291,8 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("loss", "output_floor", c.output_floor);
   b.bind("loss", "rate_ceiling", c.rate_ceiling);
   b.bind_list("loss", "rate_ceilings", c.rate_ceilings);
+  b.bind("loss", "synops_weight", c.synops_weight);
+  b.bind("loss", "synops_budget", c.synops_budget);
   b.bind_list("loss", "rate_floors", c.rate_floors);
   b.bind("optim", "lr", c.lr);
   b.bind("optim", "min_lr", c.min_lr);
@@ -406,6 +408,11 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   one_of(b, "loss", "projection", c.projection, {"sigmoid", "exponential"});
   if (c.lambda < 0) b.bad("loss", "lambda", "must not be negative");
   if (c.activity_weight < 0) b.bad("loss", "activity_weight", "must not be negative");
+  if (!(c.synops_weight >= 0)) b.bad("loss", "synops_weight", "must not be negative");
+  if (c.synops_weight > 0 && c.type == "ann2d")
+    b.bad("loss", "synops_weight", "applies to the spiking network: model.type = \"snn\"");
+  if (!(c.synops_budget >= 0))
+    b.bad("loss", "synops_budget", "must not be negative (0: a linear penalty)");
   if (c.rate_floor < 0 || c.rate_floor >= 1) b.bad("loss", "rate_floor", "must lie in [0, 1)");
   if (c.floor_weight < 0) b.bad("loss", "floor_weight", "must not be negative");
   if (c.rate_ceiling < 0 || c.rate_ceiling > 1) b.bad("loss", "rate_ceiling", "must lie in [0, 1]");

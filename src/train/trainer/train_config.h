@@ -109,6 +109,11 @@ struct TrainConfig {
   // rate_ceilings it holds a coarse level's rate in a band: the task's gradient alone drove
   // levels 3-6 from the 5-15 % they were initialised at to ~1 % (measured, docs/results.md).
   std::vector<double> rate_floors;
+  // SynOps budget (synops_loss.h): the synaptic operations per input event the network's spikes
+  // cause in the window, per sample, paid as synops_weight * (sope / synops_budget - 1)^2 above
+  // the budget, or synops_weight * sope / 1000 with budget 0. Per input event, so that a
+  // decoder firing as much on sparse input as on busy input pays most on the sparse samples.
+  double synops_weight = 0, synops_budget = 0;
   // [optim]
   double lr = 1e-3, min_lr = 1e-5, weight_decay = 0;
   bool amsgrad = true;

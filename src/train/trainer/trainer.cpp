@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <numbers>
 #include <sstream>
 #include <thread>
@@ -23,6 +24,7 @@
 #include "core/viz/svg_plot.h"
 #include "train/loss/ann_loss.h"
 #include "train/loss/spikems_loss.h"
+#include "train/loss/synops_loss.h"
 #include "train/network/ann2d_network.h"
 #include "train/neuron/kernel_choice.h"
 #include "train/neuron/neuron_cuda_torch.h"
@@ -101,13 +103,16 @@ struct StepOutput {
   // Its ceiling: the best constant student's score, the binary entropy of the teacher's mean.
   torch::Tensor distill_const;
   std::vector<double> rates;
+  // Synaptic operations per input event over the window, the mean over samples (0: no input);
+  // loss.synops_weight's penalty is in `activity`.
+  double synops_per_event = 0;
   torch::Tensor out_window, fg_window, in_window;
 };
 
 // teacher_group: the teacher's time step in this run's steps (1, or a whole multiple).
 StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teacher_group,
-                        const BatchTensors& bt, const TrainConfig& c, const LossOptions& lo,
-                        double ts) {
+                        const SynopsCounter& synops, const BatchTensors& bt, const TrainConfig& c,
+                        const LossOptions& lo, double ts) {
   const int64_t T = bt.input.size(0), H = bt.input.size(3), W = bt.input.size(4);
   const int64_t w0 = bt.warmup_steps, tw = T - w0;
   // Truncated: the layers come back as their window steps only (lw0 = 0).
@@ -149,6 +154,22 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
                                                      : c.rate_ceilings[k];
     if (c.floor_weight > 0 && ceiling > 0)
       o.activity = o.activity + c.floor_weight * torch::relu(rate / ceiling - 1).pow(2);
+  }
+  {
+    // SynOps per input event, per sample: the runtime's work for what the camera gave. A sample
+    // without input events counts its operations as if it had one.
+    const torch::Tensor events = in.sum(std::vector<int64_t>{0, 2, 3, 4}) * ts;
+    std::vector<torch::Tensor> window;
+    for (const auto& l : layers) window.push_back(l.narrow(0, lw0, tw));
+    const auto sope = [&] { return synops.per_sample(in, window, ts) / events.clamp_min(1); };
+    if (c.synops_weight > 0) {
+      const torch::Tensor v = sope();
+      o.synops_per_event = v.detach().mean().item<double>();
+      o.activity = o.activity + synops_penalty(v, c.synops_weight, c.synops_budget);
+    } else {
+      torch::NoGradGuard ng;
+      o.synops_per_event = sope().mean().item<double>();
+    }
   }
   o.distill = o.attention = o.feature = zero;
   o.distill_floor = o.distill_const = zero;
@@ -217,15 +238,16 @@ StepOutput ann_forward_loss(Ann2dNetwork& net, const BatchTensors& bt, const Tra
 struct TrainNet {
   SpikeMSNetwork snn{nullptr};
   Ann2dNetwork ann{nullptr};
-  Ann2dNetwork teacher{nullptr};  // loss.teacher: fixed, not trained, not saved
-  int64_t teacher_group = 1;      // the teacher's step in this run's steps
+  Ann2dNetwork teacher{nullptr};          // loss.teacher: fixed, not trained, not saved
+  int64_t teacher_group = 1;              // the teacher's step in this run's steps
+  std::unique_ptr<SynopsCounter> synops;  // the SNN's
   torch::nn::Module& module() {
     return snn ? static_cast<torch::nn::Module&>(*snn) : static_cast<torch::nn::Module&>(*ann);
   }
   ModelSpec to_spec() const { return snn ? snn->to_spec() : ann->to_spec(); }
   size_t size() const { return snn ? snn->size() : ann->size(); }
   StepOutput step(const BatchTensors& bt, const TrainConfig& c, const LossOptions& lo, double ts) {
-    return snn ? forward_loss(snn, teacher, teacher_group, bt, c, lo, ts)
+    return snn ? forward_loss(snn, teacher, teacher_group, *synops, bt, c, lo, ts)
                : ann_forward_loss(ann, bt, c, ts);
   }
 };
@@ -460,6 +482,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     net.ann = Ann2dNetwork(spec);
   } else {
     net.snn = SpikeMSNetwork(spec, grad);
+    net.synops = std::make_unique<SynopsCounter>(spec);
     net.snn->set_kernels(parse_kernel_path(c.kernels));
     if (c.delays)
       for (size_t k = 0; k < net.size(); ++k) net.snn->layer(k)->enable_delay(true);
@@ -625,7 +648,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   auto validate = [&]() -> nlohmann::json {
     torch::NoGradGuard ng;
     WindowScores ws;
-    double loss = 0;
+    double loss = 0, sope = 0;
     std::vector<double> rates(net.size(), 0.0);
     int batches = 0;
     for (size_t i = 0; i < val.size(); i += size_t(c.batch)) {
@@ -637,19 +660,22 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
            window_counts(o.out_window, o.fg_window, c.gate_events ? o.in_window : torch::Tensor()))
         ws.add(m);
       loss += o.total.item<double>();
+      sope += o.synops_per_event;
       for (size_t k = 0; k < rates.size(); ++k) rates[k] += o.rates[k];
       ++batches;
     }
     for (double& r : rates) r /= std::max(1, batches);
-    return {{"kind", "val"},
-            {"step", st.step},
-            {"loss", loss / std::max(1, batches)},
-            {"iou", 100 * ws.mean_iou()},
-            {"iou_std", 100 * ws.std_iou()},
-            {"detection_rate", 100 * ws.detection_rate()},
-            {"windows", ws.windows()},
-            {"skipped", ws.skipped()},
-            {"rates", rates_json(rates)}};
+    nlohmann::json v = {{"kind", "val"},
+                        {"step", st.step},
+                        {"loss", loss / std::max(1, batches)},
+                        {"iou", 100 * ws.mean_iou()},
+                        {"iou_std", 100 * ws.std_iou()},
+                        {"detection_rate", 100 * ws.detection_rate()},
+                        {"windows", ws.windows()},
+                        {"skipped", ws.skipped()},
+                        {"rates", rates_json(rates)}};
+    if (net.snn) v["synops_per_event"] = std::round(10 * sope / std::max(1, batches)) / 10;
+    return v;
   };
   // Whole-sensor validation through the core evaluation (the numbers `spikems eval` prints),
   // one source at a time because each names its own split; windows pooled over sources.
@@ -768,7 +794,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   WindowScores train_ws;
   double sum_loss = 0, sum_bce = 0, sum_spike = 0, sum_soft_iou = 0, sum_act = 0, sum_distill = 0;
   double sum_distill_floor = 0, sum_distill_const = 0, sum_attention = 0, sum_feature = 0;
-  double sum_offevent = 0;
+  double sum_offevent = 0, sum_sope = 0;
   double sum_comm = 0;  // seconds in collectives, waiting for the slowest rank included
   std::vector<double> sum_rates(net.size(), 0.0);
   std::vector<double> sum_grad;  // per parameter tensor, summed over the log interval
@@ -802,12 +828,13 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     StepOutput o = net.step(bt, c, lo, ts);
     // This rank's numbers for the log, gathered from every rank before the backward pass so
     // that a non-finite loss anywhere stops every rank before any weight changes:
-    // [loss terms x11, rates, interrupted, then (intersection, predicted, truth) per window].
+    // [loss terms x11, SynOps per event, rates, interrupted, then (intersection, predicted,
+    // truth) per window].
     std::vector<double> mine = {
         o.total.item<double>(),         o.bce.item<double>(),           o.spike.item<double>(),
         o.iou.item<double>(),           o.activity.item<double>(),      o.distill.item<double>(),
         o.distill_floor.item<double>(), o.distill_const.item<double>(), o.attention.item<double>(),
-        o.feature.item<double>(),       o.offevent.item<double>()};
+        o.feature.item<double>(),       o.offevent.item<double>(),      o.synops_per_event};
     mine.insert(mine.end(), o.rates.begin(), o.rates.end());
     mine.push_back(world > 1 && (interrupted() || out_of_time()) ? 1.0 : 0.0);
     for (const auto& m :
@@ -817,7 +844,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     const std::vector<double> all = dist.all_gather(mine);
     double comm_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_comm).count();
-    constexpr size_t kTerms = 11;
+    constexpr size_t kTerms = 12;
     const size_t per_rank = mine.size(), head = kTerms + n_rates;
     // Each rank's loss is the mean over its share; the run's loss is the mean over the ranks
     // (the same number a single process computes for losses that are means over samples).
@@ -888,6 +915,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     sum_attention += terms[8];
     sum_feature += terms[9];
     sum_offevent += terms[10];
+    sum_sope += terms[11];
     for (size_t k = 0; k < sum_rates.size(); ++k) sum_rates[k] += terms[kTerms + k];
     ++in_sum;
     st.wall_seconds =
@@ -928,10 +956,12 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
       if (c.attention_weight > 0) line["attention"] = sum_attention / in_sum;
       if (c.feature_weight > 0) line["feature"] = sum_feature / in_sum;
       if (c.offevent_weight > 0) line["offevent"] = sum_offevent / in_sum;
+      if (net.snn) line["synops_per_event"] = std::round(10 * sum_sope / in_sum) / 10;
       log_line(line);
       res.wall_seconds = st.wall_seconds;
       sum_loss = sum_bce = sum_spike = sum_soft_iou = sum_act = sum_distill = sum_comm = 0;
       sum_distill_floor = sum_distill_const = sum_attention = sum_feature = sum_offevent = 0;
+      sum_sope = 0;
       std::fill(sum_rates.begin(), sum_rates.end(), 0.0);
       std::fill(sum_grad.begin(), sum_grad.end(), 0.0);
       in_sum = 0;
