@@ -9,6 +9,7 @@
 
 #include "core/model/model_file.h"
 #include "train/loss/spikems_loss.h"
+#include "train/loss/synops_loss.h"
 #include "train/network/spikems_network.h"
 #include "train/threads.h"
 
@@ -124,6 +125,37 @@ void BM_ForwardBackward(benchmark::State& s) {
 void BM_ForwardBackwardNaive(benchmark::State& s) {
   run(s, true, true);
 }
+
+// The trainer's SynOps count (loss.synops_weight; logged every step whatever the weight) on the
+// spikes of one forward pass, against that forward pass in the same process: the count's share
+// of a step (the backward pass, not timed here, makes the step longer still).
+void BM_SynopsCountVsForward(benchmark::State& st) {
+  set_torch_threads(2);
+  const int64_t T = st.range(0), H = st.range(1), W = st.range(2);
+  const ModelSpec spec = random_model();
+  SpikeMSNetwork net(spec);
+  const SynopsCounter counter(spec);
+  const torch::Tensor x = input(T, H, W);
+  torch::NoGradGuard ng;
+  double forward_s = 0, count_s = 0, synops = 0;
+  for (auto _ : st) {
+    auto t0 = std::chrono::steady_clock::now();
+    const std::vector<torch::Tensor> layers = net->forward_all(x);
+    auto t1 = std::chrono::steady_clock::now();
+    synops = counter.per_sample(x, layers, spec.time_step_ms).sum().item<double>();
+    auto t2 = std::chrono::steady_clock::now();
+    forward_s += std::chrono::duration<double>(t1 - t0).count();
+    count_s += std::chrono::duration<double>(t2 - t1).count();
+  }
+  st.counters["forward_ms"] = 1e3 * forward_s / double(st.iterations());
+  st.counters["count_ms"] = 1e3 * count_s / double(st.iterations());
+  st.counters["count_over_forward"] = count_s / forward_s;
+  st.counters["synops"] = synops;
+}
+BENCHMARK(BM_SynopsCountVsForward)
+    ->Args({10, 260, 346})
+    ->Iterations(3)
+    ->Unit(benchmark::kMillisecond);
 
 #define SIZES(fn, it_small, it_big)                                                         \
   BENCHMARK(fn)->Args({10, 128, 128})->Iterations(it_small)->Unit(benchmark::kMillisecond); \

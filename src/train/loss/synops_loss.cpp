@@ -6,17 +6,13 @@
 namespace spikems::train {
 
 SynopsCounter::SynopsCounter(const ModelSpec& spec) : consumers_(spec.layers.size() + 1) {
+  spec.validate(spec.name);  // skip sources are earlier layers, other than the predecessor
   for (size_t j = 0; j < spec.layers.size(); ++j) {
     const LayerSpec& l = spec.layers[j];
     const Consumer c{j,         l.kernel,       l.stride,
                      l.padding, l.out_channels, l.kind == LayerKind::ConvTranspose};
     consumers_[j].push_back(c);  // its predecessor (j - 1), or the input for j = 0
-    if (l.skip_from >= 0) {
-      if (size_t(l.skip_from) + 1 >= j)
-        throw Error("layer " + std::to_string(j) + ": skip source " + std::to_string(l.skip_from) +
-                    " is not an earlier layer");
-      consumers_[size_t(l.skip_from) + 1].push_back(c);
-    }
+    if (l.skip_from >= 0) consumers_[size_t(l.skip_from) + 1].push_back(c);
   }
 }
 
