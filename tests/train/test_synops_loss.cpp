@@ -48,19 +48,48 @@ std::vector<std::vector<uint32_t>> to_steps(const torch::Tensor& x) {
   return s;
 }
 
+// The streaming runtime's count for one layer driven by `in` ([T, 1, C, H, W] spikes).
+double runtime_synops(const LayerSpec& spec, double ts, const torch::Tensor& in) {
+  auto sl = StreamingLayer::create(spec, ts, int(in.size(3)), int(in.size(4)));
+  const auto steps = to_steps(in);
+  std::vector<uint32_t> fired;
+  for (size_t t = 0; t < steps.size(); ++t) {
+    sl->fire(int64_t(t), fired);
+    sl->drive(int64_t(t), steps[t].data(), steps[t].size());
+  }
+  return double(sl->synops());
+}
+
+// A random U-Net (skips) run on random input spikes [T, B, 2, 13, 21] (padded to 15x23 inside).
+struct SkipNetRun {
+  ModelSpec spec;
+  mutable SpikeMSNetwork net;
+  torch::Tensor x;
+  std::vector<torch::Tensor> layers;
+};
+SkipNetRun run_skip_net(uint64_t seed, int64_t T, int64_t B) {
+  SkipNetRun r{test::random_model(Discretisation::IIR, seed, true), nullptr, {}, {}};
+  torch::manual_seed(seed);
+  r.x = test::random_spikes({T, B, 2, 13, 21}, 0.08);
+  r.net = SpikeMSNetwork(r.spec);
+  r.net->to(torch::kDouble);
+  torch::NoGradGuard ng;
+  r.layers = r.net->forward_all(r.x);
+  return r;
+}
+
 // The U-Net (skips) on an input that needs padding (13x21 runs as 15x23): every layer of the
 // streaming runtime, teacher forced on torch's input to that layer, counts its weight additions;
 // their sum is the counter's figure for torch's spikes, exactly, per sample.
 TEST(SynopsLoss, EqualsTheRuntimeCountOfTheSameSpikes) {
-  const ModelSpec spec = test::random_model(Discretisation::IIR, 21, true);
-  torch::manual_seed(21);
-  const int64_t T = 12, B = 2;
-  const torch::Tensor x = test::random_spikes({T, B, 2, 13, 21}, 0.08);
-  SpikeMSNetwork net(spec);
-  net->to(torch::kDouble);
-  torch::NoGradGuard ng;
-  const std::vector<torch::Tensor> layers = net->forward_all(x);
+  const int64_t B = 2;
+  const SkipNetRun r = run_skip_net(21, 12, B);
+  const ModelSpec& spec = r.spec;
+  const torch::Tensor& x = r.x;
+  const std::vector<torch::Tensor>& layers = r.layers;
   const double ts = spec.time_step_ms;
+  torch::NoGradGuard ng;
+  SpikeMSNetwork& net = r.net;
   const SynopsCounter counter(spec);
   const torch::Tensor got = counter.per_sample(x / ts, layers, ts);
   ASSERT_EQ(got.size(0), B);
@@ -70,14 +99,7 @@ TEST(SynopsLoss, EqualsTheRuntimeCountOfTheSameSpikes) {
     double want = 0;
     for (size_t k = 0; k < spec.layers.size(); ++k) {
       const torch::Tensor in = k == 0 ? padded.narrow(1, b, 1) : net->input_of(k, x, out);
-      auto sl = StreamingLayer::create(spec.layers[k], ts, int(in.size(3)), int(in.size(4)));
-      const auto steps = to_steps(in);
-      std::vector<uint32_t> fired;
-      for (size_t t = 0; t < steps.size(); ++t) {
-        sl->fire(int64_t(t), fired);
-        sl->drive(int64_t(t), steps[t].data(), steps[t].size());
-      }
-      want += double(sl->synops());
+      want += runtime_synops(spec.layers[k], ts, in);
       out.push_back(layers[k].narrow(1, b, 1));
     }
     EXPECT_GT(want, 1000.0) << "too few spikes for the comparison to mean anything";
@@ -124,6 +146,46 @@ TEST(SynopsLoss, GradientIsEachSpikesReach) {
   EXPECT_TRUE(!go.defined() || go.abs().sum().item<double>() == 0.0);
 }
 
+// loss.synops_source_weights: the count is linear in the weight of each source. The input's
+// operations alone are layer 0's runtime count; a layer whose spikes feed nothing (the output)
+// adds nothing; any weights give the same sum of the one-source counts; a wrong length throws.
+TEST(SynopsLoss, SourceWeightsScaleEachSourcesOperations) {
+  const SkipNetRun r = run_skip_net(22, 10, 2);
+  const ModelSpec& spec = r.spec;
+  const torch::Tensor& x = r.x;
+  const std::vector<torch::Tensor>& layers = r.layers;
+  const double ts = spec.time_step_ms;
+  torch::NoGradGuard ng;
+  const SynopsCounter counter(spec);
+  const size_t n = counter.sources();
+  ASSERT_EQ(n, spec.layers.size() + 1);
+  std::vector<torch::Tensor> one;  // the count of each source alone
+  for (size_t s = 0; s < n; ++s) {
+    std::vector<double> w(n, 0.0);
+    w[s] = 1.0;
+    one.push_back(counter.per_sample(x / ts, layers, ts, w));
+  }
+  // Layer 0's runtime count, on sample 0: the input's operations.
+  const torch::Tensor padded = pad_for_skips(spec, x).narrow(1, 0, 1);
+  const double layer0 = runtime_synops(spec.layers[0], ts, padded);
+  EXPECT_GT(layer0, 100.0);
+  EXPECT_EQ(one[0][0].item<double>(), layer0);
+  EXPECT_EQ(one[n - 1].abs().sum().item<double>(), 0.0) << "the output layer feeds nothing";
+  const std::vector<double> w = {0.5, 0.0, 2.0, 1.0, 3.0, 0.25, 1.0};
+  ASSERT_EQ(w.size(), n);
+  torch::Tensor want = torch::zeros_like(one[0]);
+  for (size_t s = 0; s < n; ++s) want = want + w[s] * one[s];
+  const torch::Tensor got = counter.per_sample(x / ts, layers, ts, w);
+  for (int64_t b = 0; b < 2; ++b)
+    EXPECT_NEAR(got[b].item<double>(), want[b].item<double>(), 1e-9 * want[b].item<double>());
+  // All ones is the plain count.
+  const torch::Tensor all = counter.per_sample(x / ts, layers, ts);
+  EXPECT_TRUE(
+      torch::equal(counter.per_sample(x / ts, layers, ts, std::vector<double>(n, 1.0)), all));
+  EXPECT_THROW(counter.per_sample(x / ts, layers, ts, std::vector<double>(n - 1, 1.0)),
+               std::exception);
+}
+
 TEST(SynopsLoss, PenaltyIsAHingeOnTheBudgetOrLinear) {
   const torch::Tensor sope = torch::tensor({500.0, 1500.0, 3000.0}, torch::kDouble);
   // Budget 1000: (0 + 0.5^2 + 2^2) / 3 x 2.
@@ -140,6 +202,13 @@ TEST(SynopsLoss, BadKeysAreRefused) {
                                  {"loss.synops_weight=1.0"}),
                std::exception);
   EXPECT_EQ(load_train_config(cfg, {"loss.synops_budget=800.0"}).synops_budget, 800.0);
+  // The default net has 3 levels: 6 layers and the input, 7 sources.
+  EXPECT_THROW(load_train_config(cfg, {"loss.synops_source_weights=[1.0, 1.0]"}), std::exception);
+  EXPECT_THROW(load_train_config(cfg, {"loss.synops_source_weights=[1, 1, 1, -1, 1, 1, 1]"}),
+               std::exception);
+  EXPECT_EQ(load_train_config(cfg, {"loss.synops_source_weights=[1, 1, 0, 1, 1, 1, 1]"})
+                .synops_source_weights,
+            (std::vector<double>{1, 1, 0, 1, 1, 1, 1}));
 }
 
 }  // namespace

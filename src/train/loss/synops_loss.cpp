@@ -26,14 +26,20 @@ std::vector<double> SynopsCounter::reach(int64_t in, int64_t out, int kernel, in
 }
 
 torch::Tensor SynopsCounter::per_sample(const torch::Tensor& input,
-                                        const std::vector<torch::Tensor>& layers, double ts) const {
+                                        const std::vector<torch::Tensor>& layers, double ts,
+                                        const std::vector<double>& source_weights) const {
   if (layers.size() + 1 != consumers_.size())
     throw Error("SynOps: " + std::to_string(layers.size()) + " layers given, the model has " +
                 std::to_string(consumers_.size() - 1));
+  if (!source_weights.empty() && source_weights.size() != consumers_.size())
+    throw Error("SynOps: " + std::to_string(source_weights.size()) +
+                " source weights given, the model has " + std::to_string(consumers_.size()) +
+                " sources (the input and each layer)");
   const auto opt = input.options();
   torch::Tensor total = torch::zeros({input.size(1)}, opt);
   for (size_t s = 0; s < consumers_.size(); ++s) {
-    if (consumers_[s].empty()) continue;
+    const double weight = source_weights.empty() ? 1.0 : source_weights[s];
+    if (consumers_[s].empty() || weight == 0) continue;
     const torch::Tensor& src = s == 0 ? input : layers[s - 1];
     // Spikes per position and sample, over steps and channels (spikes are 1/ts).
     const torch::Tensor count = src.sum(std::vector<int64_t>{0, 2}) * ts;  // [B, H, W]
@@ -46,7 +52,7 @@ torch::Tensor SynopsCounter::per_sample(const torch::Tensor& input,
       const torch::Tensor map =
           torch::outer(torch::tensor(rows, dopt), torch::tensor(cols, dopt)).to(opt) *
           double(c.out_channels);
-      total = total + (count * map).sum(std::vector<int64_t>{1, 2});
+      total = total + weight * (count * map).sum(std::vector<int64_t>{1, 2});
     }
   }
   return total;

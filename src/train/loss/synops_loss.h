@@ -27,8 +27,13 @@ class SynopsCounter {
   // H, W] (values 1/ts; it may be smaller than the padded size the network runs on: padding
   // holds no spikes); layers[k]: layer k's spikes [T, B, C_k, H_k, W_k] over the same steps
   // (SpikeMSNetwork::forward_all). Differentiable in the spikes (a weighted sum of them).
+  // source_weights (empty: all 1) scales the operations of each source: entry 0 the input's,
+  // entry k layer k's spikes' (layers numbered from 1, as `spikems segment --stats` does).
   torch::Tensor per_sample(const torch::Tensor& input, const std::vector<torch::Tensor>& layers,
-                           double ts) const;
+                           double ts, const std::vector<double>& source_weights = {}) const;
+
+  // How many entries source_weights has: the input and each layer.
+  size_t sources() const { return consumers_.size(); }
 
   // How many (output position, tap) pairs input coordinate i in [0, in) reaches along one axis
   // of a layer with an output of `out` positions. Conv: out = (in + 2p - k) / s + 1 and in = o s

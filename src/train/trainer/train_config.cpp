@@ -293,6 +293,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind_list("loss", "rate_ceilings", c.rate_ceilings);
   b.bind("loss", "synops_weight", c.synops_weight);
   b.bind("loss", "synops_budget", c.synops_budget);
+  b.bind_list("loss", "synops_source_weights", c.synops_source_weights);
   b.bind_list("loss", "rate_floors", c.rate_floors);
   b.bind("optim", "lr", c.lr);
   b.bind("optim", "min_lr", c.min_lr);
@@ -413,6 +414,14 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
     b.bad("loss", "synops_weight", "applies to the spiking network: model.type = \"snn\"");
   if (!(c.synops_budget >= 0))
     b.bad("loss", "synops_budget", "must not be negative (0: a linear penalty)");
+  if (!c.synops_source_weights.empty() &&
+      c.synops_source_weights.size() != 2 * c.channels.size() + 1)
+    b.bad("loss", "synops_source_weights",
+          "needs one weight for the input and one per layer (" +
+              std::to_string(2 * c.channels.size() + 1) + ")");
+  for (double w : c.synops_source_weights)
+    if (!(w >= 0 && std::isfinite(w)))
+      b.bad("loss", "synops_source_weights", "each must be a finite number, not negative");
   if (c.rate_floor < 0 || c.rate_floor >= 1) b.bad("loss", "rate_floor", "must lie in [0, 1)");
   if (c.floor_weight < 0) b.bad("loss", "floor_weight", "must not be negative");
   if (c.rate_ceiling < 0 || c.rate_ceiling > 1) b.bad("loss", "rate_ceiling", "must lie in [0, 1]");

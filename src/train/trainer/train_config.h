@@ -114,6 +114,11 @@ struct TrainConfig {
   // the budget, or synops_weight * sope / 1000 with budget 0. Per input event, so that a
   // decoder firing as much on sparse input as on busy input pays most on the sparse samples.
   double synops_weight = 0, synops_budget = 0;
+  // What the budget counts of each source's operations (empty: all of them): entry 0 the
+  // input's, entry k layer k's spikes' (numbered as `spikems segment --stats`), so a budget can
+  // spare the layers that carry the camera-motion suppression (docs/training.md). The logged
+  // synops_per_event stays the full count.
+  std::vector<double> synops_source_weights;
   // [optim]
   double lr = 1e-3, min_lr = 1e-5, weight_decay = 0;
   bool amsgrad = true;

@@ -162,7 +162,13 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
     std::vector<torch::Tensor> window;
     for (const auto& l : layers) window.push_back(l.narrow(0, lw0, tw));
     const auto sope = [&] { return synops.per_sample(in, window, ts) / events.clamp_min(1); };
-    if (c.synops_weight > 0) {
+    if (c.synops_weight > 0 && !c.synops_source_weights.empty()) {
+      const torch::Tensor v =
+          synops.per_sample(in, window, ts, c.synops_source_weights) / events.clamp_min(1);
+      o.activity = o.activity + synops_penalty(v, c.synops_weight, c.synops_budget);
+      torch::NoGradGuard ng;
+      o.synops_per_event = sope().mean().item<double>();
+    } else if (c.synops_weight > 0) {
       const torch::Tensor v = sope();
       o.synops_per_event = v.detach().mean().item<double>();
       o.activity = o.activity + synops_penalty(v, c.synops_weight, c.synops_budget);
@@ -483,6 +489,11 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   } else {
     net.snn = SpikeMSNetwork(spec, grad);
     net.synops = std::make_unique<SynopsCounter>(spec);
+    if (!c.synops_source_weights.empty() && c.synops_source_weights.size() != net.synops->sources())
+      fail("loss.synops_source_weights", "",
+           "gives " + std::to_string(c.synops_source_weights.size()) +
+               " weights, the network has " + std::to_string(net.synops->sources()) +
+               " sources (the input and " + std::to_string(net.synops->sources() - 1) + " layers)");
     net.snn->set_kernels(parse_kernel_path(c.kernels));
     if (c.delays)
       for (size_t k = 0; k < net.size(); ++k) net.snn->layer(k)->enable_delay(true);
