@@ -3,11 +3,11 @@
 # scored: validation rooms (mod5-val, first 1 s) at output factors FACTORS, the 48 held-out rooms
 # (seeds 6001, 6002) at FACTOR, the real static scenes, and the runtime's work on one held-out
 # room (spike counts and SynOps are exact; the real-time factor depends on the machine's load).
-# Usage: runs/long30/eval.sh NAME MODEL [FACTOR] [FACTORS]
+# Usage: [EVAL_OUT=out/eval30] runs/long30/eval.sh NAME MODEL [FACTOR] [FACTORS]
 set -euo pipefail
 SPIKEMS=${SPIKEMS:-build/spikems}
 N=${1:?name} M=${2:?model} F=${3:-1.6} FS=${4:-1.5,1.6,1.7}
-O=out/eval30/$N
+O=${EVAL_OUT:-out/eval30}/$N
 mkdir -p "$O-segment"
 "$SPIKEMS" eval --model "$M" --output-thresholds "$FS" --output-gates 10 --data data/mod5-val \
   --split all --windows 20,100 --max-seconds 1 --threads 1 --quiet --out "$O-val"
