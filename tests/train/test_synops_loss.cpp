@@ -63,7 +63,7 @@ double runtime_synops(const LayerSpec& spec, double ts, const torch::Tensor& in)
 // A random U-Net (skips) run on random input spikes [T, B, 2, 13, 21] (padded to 15x23 inside).
 struct SkipNetRun {
   ModelSpec spec;
-  mutable SpikeMSNetwork net;
+  SpikeMSNetwork net;
   torch::Tensor x;
   std::vector<torch::Tensor> layers;
 };
@@ -83,13 +83,13 @@ SkipNetRun run_skip_net(uint64_t seed, int64_t T, int64_t B) {
 // their sum is the counter's figure for torch's spikes, exactly, per sample.
 TEST(SynopsLoss, EqualsTheRuntimeCountOfTheSameSpikes) {
   const int64_t B = 2;
-  const SkipNetRun r = run_skip_net(21, 12, B);
+  SkipNetRun r = run_skip_net(21, 12, B);
   const ModelSpec& spec = r.spec;
   const torch::Tensor& x = r.x;
   const std::vector<torch::Tensor>& layers = r.layers;
   const double ts = spec.time_step_ms;
   torch::NoGradGuard ng;
-  SpikeMSNetwork& net = r.net;
+  SpikeMSNetwork& net = r.net;  // input_of below
   const SynopsCounter counter(spec);
   const torch::Tensor got = counter.per_sample(x / ts, layers, ts);
   ASSERT_EQ(got.size(0), B);

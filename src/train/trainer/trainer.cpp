@@ -162,17 +162,15 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
     std::vector<torch::Tensor> window;
     for (const auto& l : layers) window.push_back(l.narrow(0, lw0, tw));
     const auto sope = [&] { return synops.per_sample(in, window, ts) / events.clamp_min(1); };
-    if (c.synops_weight > 0 && !c.synops_source_weights.empty()) {
+    // The penalty counts what loss.synops_source_weights says; the log, every operation.
+    const bool weighted = !c.synops_source_weights.empty();
+    if (c.synops_weight > 0) {
       const torch::Tensor v =
           synops.per_sample(in, window, ts, c.synops_source_weights) / events.clamp_min(1);
       o.activity = o.activity + synops_penalty(v, c.synops_weight, c.synops_budget);
-      torch::NoGradGuard ng;
-      o.synops_per_event = sope().mean().item<double>();
-    } else if (c.synops_weight > 0) {
-      const torch::Tensor v = sope();
-      o.synops_per_event = v.detach().mean().item<double>();
-      o.activity = o.activity + synops_penalty(v, c.synops_weight, c.synops_budget);
-    } else {
+      if (!weighted) o.synops_per_event = v.detach().mean().item<double>();
+    }
+    if (c.synops_weight == 0 || weighted) {
       torch::NoGradGuard ng;
       o.synops_per_event = sope().mean().item<double>();
     }
