@@ -1000,8 +1000,8 @@ TEST(Trainer, PerLayerRateBoundsEnterTheActivityTerm) {
 }
 
 // loss.synops_weight: every line logs the SynOps per input event; with the linear form the
-// activity term is w x that / 1000 (the other sparsity terms off), and the penalised run does
-// less work per event than the same run without it.
+// activity term is w x that / 1000 (the other sparsity terms off), the penalised run does less
+// work per event than the same run without it, and with every source weighted 0 it is that run.
 TEST(Trainer, SynopsPenaltyIsLoggedAndLowersTheWorkPerEvent) {
   auto base = tiny_overrides(12);
   for (const char* k : {"loss.activity_weight=0.0", "loss.floor_weight=0.0"}) base.push_back(k);
@@ -1033,6 +1033,23 @@ TEST(Trainer, SynopsPenaltyIsLoggedAndLowersTheWorkPerEvent) {
   std::printf("SynOps per event, steps 9-12: %.1f without the penalty, %.1f with it\n",
               free_late / 4, paid_late / 4);
   EXPECT_LT(paid_late, 0.9 * free_late) << "the penalty did not lower the work per event";
+
+  // loss.synops_source_weights all 0: the budget counts nothing, so the run is the free one, and
+  // the log still gives the full count (the default net: the input and 6 layers).
+  auto spared = paid;
+  spared.push_back("loss.synops_source_weights=[0, 0, 0, 0, 0, 0, 0]");
+  const std::string spared_dir = scratch_dir() + "/spared";
+  EXPECT_EQ(train_quietly(spared, spared_dir).steps, 12);
+  const auto spared_lines = read_log(spared_dir, "train");
+  ASSERT_EQ(spared_lines.size(), 12u);
+  for (size_t i = 0; i < 12; ++i) {
+    EXPECT_EQ(spared_lines[i]["activity"].get<double>(), 0.0) << "step " << i + 1;
+    EXPECT_EQ(spared_lines[i]["loss"].get<double>(), free_lines[i]["loss"].get<double>())
+        << "step " << i + 1;
+    EXPECT_EQ(spared_lines[i]["synops_per_event"].get<double>(),
+              free_lines[i]["synops_per_event"].get<double>())
+        << "step " << i + 1;
+  }
 }
 
 // loss.offevent_weight: the term is logged and enters the loss with its weight (the loss is the
