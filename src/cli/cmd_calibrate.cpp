@@ -1,5 +1,6 @@
 // `spikems calibrate`: choose a model's output threshold on labelled validation data and write
 // the model with it (core/eval/calibration.h). Parses the options and calls the core.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 
@@ -19,7 +20,7 @@ namespace fs = std::filesystem;
 struct Args {
   std::string model, out, split = "val", factors, gates, window = "20", criterion = "event-iou";
   std::vector<std::string> data, static_data;
-  double max_seconds = 0, max_static_moving = 5;
+  double max_seconds = 0, max_static_moving = 5, time_step_ms = 0;
   bool budget_given = false;
   int threads = 1;
   bool quiet = false;
@@ -47,6 +48,9 @@ void run(const Args& a) {
   if (a.max_seconds < 0) fail("--max-seconds", "", "must be positive");
   o.max_seconds = a.max_seconds;
   o.threads = a.threads;
+  if (!(std::isfinite(a.time_step_ms) && a.time_step_ms >= 0))
+    fail("--time-step-ms", "", "must be a positive number of ms, e.g. 5 (0 = the model's own)");
+  o.time_step_ms = a.time_step_ms;
   o.progress = !a.quiet;
   o.command_line = cli::invoked_command();
   std::error_code ec;
@@ -121,6 +125,10 @@ void add(CLI::App& app) {
   cmd->add_option("--out", a.out, "Where to write the calibrated model (a new file)")->required();
   cmd->add_option("--max-seconds", a.max_seconds,
                   "Score only the first S seconds of each sequence");
+  cmd->add_option("--time-step-ms", a.time_step_ms,
+                  "Move the model to this step (ms), its time constants scaled by the same "
+                  "ratio (each step behaves as trained, with more time and events in it: a "
+                  "faster network), calibrate it there and write it with that step (0 = its own)");
   cmd->add_option("--threads", a.threads, "Threads inside the network (results identical)")
       ->capture_default_str();
   cmd->add_flag("--quiet", a.quiet, "No progress bar or notes on stderr");

@@ -1,6 +1,7 @@
 // `spikems eval`: a model's IoU and detection rate on labelled datasets, per window length, as
 // the paper reports them (docs/evaluation.md). Parses the options and calls core/eval.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
@@ -24,7 +25,7 @@ struct Args {
   std::vector<std::string> models, data, baselines;
   int threads = 1, group_windows = 1;
   bool iir = false, quiet = false, gate_events = false, static_scene = false;
-  double max_seconds = 0, min_moving_share = 0, keep_events = 1;
+  double max_seconds = 0, min_moving_share = 0, keep_events = 1, time_step_ms = 0;
 };
 
 // "2,10" -> {2, 10}; "none" -> {} (no band rows). Errors name the option and the item.
@@ -69,6 +70,9 @@ void run(const Args& a) {
   if (!a.gates.empty()) o.output_gates_us = parse_gate_list_ms(a.gates, "--output-gates");
   o.threads = a.threads;
   o.iir = a.iir;
+  if (!(std::isfinite(a.time_step_ms) && a.time_step_ms >= 0))
+    fail("--time-step-ms", "", "must be a positive number of ms, e.g. 5 (0 = each model's own)");
+  o.time_step_ms = a.time_step_ms;
   o.gate_events = a.gate_events;
   o.boxes = a.boxes;
   o.static_scene = a.static_scene;
@@ -201,6 +205,11 @@ void add(CLI::App& app) {
                   "seed: the same events every run), labels and all: how a model holds up when "
                   "a sensor gives fewer events (higher contrast threshold, slower motion)")
       ->capture_default_str();
+  cmd->add_option("--time-step-ms", a.time_step_ms,
+                  "Run every model at this step (ms) with its time constants scaled by the same "
+                  "ratio, so each step behaves as trained with more time and events in it: fewer "
+                  "steps, a faster network, outputs close to the model's own (0 = each model's "
+                  "own step; docs/evaluation.md, \"Coarser time steps\")");
   cmd->add_flag("--iir", a.iir,
                 "Run FIR layers with the exact recursions of the same neurons (faster; spikes "
                 "close to but not identical with the FIR model)");

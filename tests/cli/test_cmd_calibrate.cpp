@@ -105,6 +105,28 @@ TEST(CalibrateCli, KeepsTheFactorWithTheBestEventIoUAndRecordsIt) {
   EXPECT_EQ(m2.training.at("calibration").at("previous").at("points").size(), 5u);
 }
 
+// --time-step-ms: the model is moved to that step with its time constants scaled (time_step.h),
+// scored there, and written with that step, the file's own step recorded.
+TEST(CalibrateCli, TimeStepMsWritesTheModelAtThatStep) {
+  const LinesCase lc;
+  std::string out;
+  const std::string cal = lc.dir + "/at2.safetensors";
+  ASSERT_EQ(lc.calibrate("--factors 1,3 --window 10 --time-step-ms 2 --out " + cal, out), 0) << out;
+  const ModelSpec m = load_model(cal), base = load_model(lc.model);
+  EXPECT_DOUBLE_EQ(m.time_step_ms, 2);
+  EXPECT_FLOAT_EQ(m.layers[0].neuron.tau_s, 2 * base.layers[0].neuron.tau_s);
+  EXPECT_FLOAT_EQ(m.layers[0].neuron.tau_r, 2 * base.layers[0].neuron.tau_r);
+  EXPECT_EQ(m.training.at("calibration").at("source_time_step_ms").get<double>(),
+            base.time_step_ms);
+  // Bad values stop before anything is written.
+  for (const char* bad : {"-2", "inf"}) {
+    const std::string o = lc.dir + "/bad.safetensors";
+    EXPECT_NE(lc.calibrate(std::string("--time-step-ms ") + bad + " --out " + o, out), 0) << bad;
+    EXPECT_NE(out.find("--time-step-ms"), std::string::npos) << out;
+    EXPECT_FALSE(std::filesystem::exists(o));
+  }
+}
+
 // --gates: each output gate with each factor. The model answers an event a step or more after
 // it, at its pixel, and no pixel sees a second event, so a 1 ms gate (the output's own step)
 // drops every output (event IoU 0 at any factor), while 5 ms covers the steps labels are read

@@ -13,6 +13,7 @@
 #include "core/dataset/sequence.h"
 #include "core/eval/evaluation.h"
 #include "core/model/model_file.h"
+#include "core/model/time_step.h"
 
 namespace spikems {
 namespace {
@@ -613,6 +614,46 @@ TEST_F(EvalCli, OutputGatesGiveARowPerGate) {
                 out.find("whole number") != std::string::npos)
         << bad << ": " << out;
   }
+}
+
+// --time-step-ms runs every model at another step with its time constants scaled (time_step.h):
+// the same scores as the model file moved by with_time_step and scored at its own step, the
+// step in every file; its own step changes nothing; a coarser one changes the scores.
+TEST_F(EvalCli, TimeStepMsScoresTheModelMovedToThatStep) {
+  const std::string moved = dir_ + "/pass_all_2ms.safetensors";
+  save_model(moved, with_time_step(load_model(model()), 2, TimeConstants::Steps, "test"));
+  auto scores = [&](const std::string& cmd, const std::string& o) {
+    std::string out;
+    EXPECT_EQ(run_command(cmd + " --data " + data() + " --split all --windows 20 --out " + o, &out),
+              0)
+        << out;
+    const auto j = nlohmann::json::parse(slurp(o + "/results.json"));
+    const auto& m = j["models"][0];
+    const auto& w = m["datasets"][0]["windows"][0];
+    return std::vector<double>{m["time_step_ms"].get<double>(), w["iou_mean"].get<double>(),
+                               w["moving_share"].get<double>(), w["detection_rate"].get<double>(),
+                               double(m["time_step_scaled"].get<bool>())};
+  };
+  const auto own = scores(eval(""), dir_ + "/ts_own");
+  const auto same = scores(eval("--time-step-ms 1"), dir_ + "/ts_same");
+  const auto flag = scores(eval("--time-step-ms 2"), dir_ + "/ts_flag");
+  const auto file = scores(spikems_binary() + " eval --quiet --model " + moved, dir_ + "/ts_file");
+  EXPECT_EQ(same, own);
+  EXPECT_DOUBLE_EQ(flag[0], 2);
+  EXPECT_DOUBLE_EQ(flag[4], 1);
+  for (size_t i = 0; i < 4; ++i) EXPECT_DOUBLE_EQ(flag[i], file[i]) << i;
+  EXPECT_NE(flag[1], own[1]) << "2 ms steps left the IoU as it was";
+  EXPECT_NE(slurp(dir_ + "/ts_flag/results.md").find("pass_all.safetensors at 2 ms steps"),
+            std::string::npos);
+  std::string out;
+  for (const char* bad : {"-1", "nan"}) {
+    EXPECT_EQ(run_command(eval(std::string("--data ") + data() + " --time-step-ms " + bad), &out),
+              1)
+        << bad;
+    EXPECT_NE(out.find("--time-step-ms"), std::string::npos) << bad << ": " << out;
+  }
+  EXPECT_EQ(run_command(eval("--data " + data() + " --time-step-ms 3 --windows 20"), &out), 1);
+  EXPECT_NE(out.find("not a multiple"), std::string::npos) << out;
 }
 
 TEST_F(EvalCli, BadInputStopsWithAClearMessage) {

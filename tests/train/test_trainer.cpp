@@ -369,6 +369,40 @@ TEST(Trainer, OutputGateKeyGatesTheSavedModel) {
   }
 }
 
+// model.init from a file trained at another step: refused without model.init_time_constants
+// (setting the step alone would silently change every neuron's per-step decay); "steps" scales
+// the file's time constants by the ratio of the steps, "ms" keeps them.
+TEST(Trainer, InitAtAnotherTimeStepNeedsTheKey) {
+  const std::string scratch = scratch_dir();
+  auto ov = tiny_overrides(1);
+  ov.push_back("sample.step_ms=1.0");
+  ov.push_back("run.val_full_s=0.0");
+  ASSERT_EQ(train_quietly(ov, scratch + "/w0").steps, 1);
+  const ModelSpec w0 = load_model(scratch + "/w0/model.safetensors");
+  ASSERT_DOUBLE_EQ(w0.time_step_ms, 1);
+  auto at2 = ov;
+  at2.push_back("model.init=\"" + scratch + "/w0/model.safetensors\"");
+  at2.push_back("sample.step_ms=2.0");
+  expect_refused<Error>([&] { train_quietly(at2, scratch + "/refused"); },
+                        {"model.init", "trained with 1 ms steps and sample.step_ms is 2",
+                         "model.init_time_constants"},
+                        "a 1 ms model at 2 ms steps without the key");
+  for (const char* keep : {"steps", "ms"}) {
+    auto o = at2;
+    o.push_back(std::string("model.init_time_constants=\"") + keep + "\"");
+    const std::string dir = scratch + "/" + keep;
+    ASSERT_EQ(train_quietly(o, dir).steps, 1) << keep;
+    const ModelSpec m = load_model(dir + "/model.safetensors");
+    EXPECT_DOUBLE_EQ(m.time_step_ms, 2);
+    const float f = std::string(keep) == "steps" ? 2.f : 1.f;
+    ASSERT_EQ(m.layers.size(), w0.layers.size());
+    for (size_t k = 0; k < m.layers.size(); ++k) {
+      EXPECT_FLOAT_EQ(m.layers[k].neuron.tau_s, f * w0.layers[k].neuron.tau_s) << keep << k;
+      EXPECT_FLOAT_EQ(m.layers[k].neuron.tau_r, f * w0.layers[k].neuron.tau_r) << keep << k;
+    }
+  }
+}
+
 // Runs `spikems train` as a child process and kills it with SIGKILL once its first checkpoint
 // is on disk.
 void train_and_kill(const std::vector<std::string>& args, const std::string& dir) {
@@ -559,6 +593,12 @@ TEST(Trainer, BadConfigsNameTheKey) {
             std::string::npos);
   EXPECT_NE(msg({"model.init_ann=\"a.safetensors\"", "model.init=\"b.safetensors\""})
                 .find("model.init_ann: starts a spiking network's data initialisation"),
+            std::string::npos);
+  EXPECT_NE(msg({"model.init_time_constants=\"seconds\"", "model.init=\"b.safetensors\""})
+                .find("model.init_time_constants: 'seconds': give \"steps\""),
+            std::string::npos);
+  EXPECT_NE(msg({"model.init_time_constants=\"steps\""})
+                .find("model.init_time_constants: applies to a model.init file"),
             std::string::npos);
   EXPECT_NE(msg({"loss.feature_weight=-1.0"}).find("loss.feature_weight: must not be negative"),
             std::string::npos);

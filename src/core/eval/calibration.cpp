@@ -7,6 +7,7 @@
 
 #include "core/eval/results.h"
 #include "core/model/output_threshold.h"
+#include "core/model/time_step.h"
 #include "core/util/error.h"
 #include "core/util/text_format.h"
 
@@ -36,6 +37,7 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
   e.output_gates_us = opt.gates_us;
   std::sort(e.output_gates_us.begin(), e.output_gates_us.end());
   e.threads = opt.threads;
+  e.time_step_ms = opt.time_step_ms;
   e.max_seconds = opt.max_seconds;
   e.progress = opt.progress;
   e.command_line = opt.command_line;
@@ -119,7 +121,11 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
 
 ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResult& r) {
   const CalibrationPoint& best = r.points.at(r.best);
-  ModelSpec m = with_output_threshold(load_model(opt.model), best.factor, opt.model);
+  ModelSpec m = load_model(opt.model);
+  const double file_step_ms = m.time_step_ms;
+  if (opt.time_step_ms > 0 && std::abs(m.time_step_ms - opt.time_step_ms) > 1e-9 * opt.time_step_ms)
+    m = with_time_step(std::move(m), opt.time_step_ms, TimeConstants::Steps, opt.model);
+  m = with_output_threshold(std::move(m), best.factor, opt.model);
   m.output_gate_steps = best.gate_steps;  // the model's own when no gate was swept
   double before = 1;
   nlohmann::json previous;  // an earlier calibration's record, kept inside the new one
@@ -155,6 +161,8 @@ ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResul
                                {"command", opt.command_line},
                                {"date", r.eval.date},
                                {"source_model", opt.model}};
+  if (m.time_step_ms != file_step_ms)
+    m.training["calibration"]["source_time_step_ms"] = file_step_ms;
   if (!opt.static_data.empty()) {
     m.training["calibration"]["static_data"] = opt.static_data;
     m.training["calibration"]["max_static_moving"] = opt.max_static_moving;

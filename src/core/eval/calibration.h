@@ -29,6 +29,9 @@ struct CalibrationOptions {
   std::vector<std::string> static_data;
   double max_static_moving = 5;
   double max_seconds = 0;
+  // > 0: the model is moved to this step (ms), time constants scaled (EvalOptions::time_step_ms),
+  // scored there and written with it. 0: its own step.
+  double time_step_ms = 0;
   int threads = 1;
   bool progress = false;
   std::string command_line;

@@ -10,6 +10,7 @@
 #include "core/events/event_ops.h"
 #include "core/model/output_gate.h"
 #include "core/model/output_threshold.h"
+#include "core/model/time_step.h"
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
 #include "core/util/progress.h"
@@ -85,11 +86,15 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   std::vector<ModelSpec> models;
   std::vector<std::string> model_paths;
   std::vector<double> model_scales;
+  std::vector<bool> model_retimed;
   const std::vector<int64_t> gates =
       opt.output_gates_us.empty() ? std::vector<int64_t>{-1} : opt.output_gates_us;
   for (const auto& p : paths) {
     ModelSpec m = load_model(p);
     if (opt.iir && m.type == ModelType::SNN) m = with_iir_neurons(std::move(m), p);
+    const bool retimed = opt.time_step_ms > 0 &&
+                         std::abs(m.time_step_ms - opt.time_step_ms) > 1e-9 * opt.time_step_ms;
+    if (retimed) m = with_time_step(std::move(m), opt.time_step_ms, TimeConstants::Steps, p);
     check_windows(opt.windows_us, time_step_us(m), p);
     if (!opt.kalman_us.empty()) check_windows(opt.kalman_us, time_step_us(m), p + " (--kalman)");
     for (int64_t g : gates)
@@ -98,6 +103,7 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
         models.push_back(s == 1.0 ? std::move(v) : with_output_threshold(std::move(v), s, p));
         model_paths.push_back(p);
         model_scales.push_back(s);
+        model_retimed.push_back(retimed);
       }
   }
   if (!opt.baselines.empty()) check_windows(opt.windows_us, 1, "--windows");
@@ -152,6 +158,7 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
     res[i].name = models[i].name;
     res[i].time_step_ms = double(time_step_us(models[i])) / 1000.0;
     res[i].iir = opt.iir;
+    res[i].time_step_scaled = model_retimed[i];
   }
   for (size_t i = 0; i < opt.baselines.size(); ++i) {
     ModelResult& m = res[models.size() + i];

@@ -32,6 +32,9 @@ struct EvalOptions {
   std::vector<int64_t> output_gates_us;
   int threads = 1;   // threads inside the network
   bool iir = false;  // run FIR layers as their exact IIR recursions
+  // > 0: every model runs at this step (ms), its time constants scaled so each step behaves
+  // as trained (core/model/time_step.h, "steps"): fewer steps, a faster network. 0: its own.
+  double time_step_ms = 0;
   bool gate_events =
       false;  // P ∩ E: predictions count only at pixels with events (window_scorer.h)
   // A boxes file (boxes.h): G = box pixels and events moving when inside a valid box, for

@@ -368,6 +368,7 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
     jm["name"] = m.name;
     jm["time_step_ms"] = m.time_step_ms;
     jm["iir"] = m.iir;
+    jm["time_step_scaled"] = m.time_step_scaled;
     jm["output_threshold_scale"] = m.output_threshold;
     jm["output_gate_ms"] = m.output_gate_steps * m.time_step_ms;
     nlohmann::ordered_json ds = nlohmann::ordered_json::array();
@@ -420,7 +421,9 @@ std::string model_file_label(const EvalResults& r, const std::string& path) {
 }
 
 std::string model_label(const EvalResults& r, const ModelResult& m) {
-  const std::string name = model_file_label(r, m.path);
+  const std::string name =
+      model_file_label(r, m.path) +
+      (m.time_step_scaled ? " at " + fmt("%g", m.time_step_ms) + " ms steps" : "");
   const std::string gate = m.output_gate_steps > 0
                                ? " gate " + fmt("%g", m.output_gate_steps * m.time_step_ms) + " ms"
                                : "";
@@ -515,7 +518,8 @@ std::string results_markdown(const EvalResults& r) {
   out += "- date: " + r.date + "\n";
   for (const auto& m : r.models)
     out += "- model: `" + m.path + "` (" + m.name + ", time step " + fmt("%g", m.time_step_ms) +
-           " ms" + (m.iir ? ", FIR layers run as IIR" : "") +
+           " ms" + (m.time_step_scaled ? " (time constants scaled with it)" : "") +
+           (m.iir ? ", FIR layers run as IIR" : "") +
            (m.output_threshold != 1 ? ", output θ × " + fmt("%g", m.output_threshold) : "") +
            (m.output_gate_steps > 0
                 ? ", output gate " + fmt("%g", m.output_gate_steps * m.time_step_ms) + " ms"

@@ -84,6 +84,8 @@ struct ModelResult {
   std::string path, name;
   double time_step_ms = 1;
   bool iir = false;  // FIR layers run as IIR recursions (--iir)
+  // Run at another step than its file's, time constants scaled (EvalOptions::time_step_ms).
+  bool time_step_scaled = false;
   // The factor on the output layer's θ (EvalOptions::output_thresholds); 1 = as trained.
   double output_threshold = 1;
   // The output gate it ran with (ModelSpec::output_gate_steps, its own or EvalOptions'), steps.

@@ -247,6 +247,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   c.init_rates.back() = 0.02;
   b.bind_list("model", "init_rates", c.init_rates);
   b.bind("model", "init_ann", c.init_ann);
+  b.bind("model", "init_time_constants", c.init_time_constants);
   b.bind_sources("data", "train", c.train, "train");
   b.bind_sources("data", "val", c.val, "val");
   b.bind_sources("data", "val_static", c.val_static, "all");
@@ -338,6 +339,15 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
     b.bad("model", "init_ann",
           "starts a spiking network's data initialisation: needs model.init = \"data\" and "
           "model.type = \"snn\"");
+  if (!c.init_time_constants.empty()) {
+    if (c.init_time_constants != "steps" && c.init_time_constants != "ms")
+      b.bad("model", "init_time_constants",
+            "'" + c.init_time_constants +
+                "': give \"steps\" (each step's dynamics kept) or \"ms\" (time constants kept "
+                "in milliseconds)");
+    if (c.init == "data")
+      b.bad("model", "init_time_constants", "applies to a model.init file: model.init is \"data\"");
+  }
   for (double r : c.init_rates)
     if (!(r > 0 && r < 1)) b.bad("model", "init_rates", "rates must lie in (0, 1)");
   if (c.train.empty()) b.bad("data", "train", "no training data: give at least one dataset");

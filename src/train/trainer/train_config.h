@@ -54,6 +54,10 @@ struct TrainConfig {
   // layer's starting pattern (weight_init.h, ann_weight_directions) instead of random draws;
   // the scales are still set on data. Empty: random.
   std::string init_ann;
+  // With init = a file trained at another time step than sample.step_ms: "steps" scales its
+  // time constants so each step behaves as before, "ms" keeps them in milliseconds
+  // (core/model/time_step.h). Empty: such a file is refused.
+  std::string init_time_constants;
   // [data]
   std::vector<DatasetSource> train, val;
   // Static scenes (every event background, e.g. the simulator's `poster` preset with flat

@@ -17,6 +17,7 @@
 #include "core/eval/evaluation.h"
 #include "core/model/model_file.h"
 #include "core/model/output_gate.h"
+#include "core/model/time_step.h"
 #include "core/util/atomic_file.h"
 #include "core/util/error.h"
 #include "core/util/interrupt.h"
@@ -45,6 +46,25 @@ ModelSpec initial_spec(const TrainConfig& c) {
     return ann2d_architecture(c.channels, c.skips, c.skip_levels, c.history);
   if (c.init != "data") {
     spec = load_model(c.init);  // fine-tuning: geometry and neurons from the file
+    const double ts = double(c.sample.step_us) / 1000.0;
+    if (std::abs(spec.time_step_ms - ts) > 1e-9 * ts) {
+      // Setting the step alone would change every neuron's per-step decay: a 2 ms model at
+      // 5 ms steps falls silent. Say which of the two meanings is wanted.
+      if (c.init_time_constants.empty()) {
+        char why[320];
+        std::snprintf(why, sizeof why,
+                      " was trained with %g ms steps and sample.step_ms is %g: set "
+                      "model.init_time_constants = \"steps\" (each step behaves as before, time "
+                      "constants scaled) or \"ms\" (time constants kept in ms), or "
+                      "sample.step_ms = %g",
+                      spec.time_step_ms, ts, spec.time_step_ms);
+        fail("model.init", "", c.init + why);
+      }
+      spec =
+          with_time_step(std::move(spec), ts,
+                         parse_time_constants(c.init_time_constants, "model.init_time_constants"),
+                         "model.init_time_constants (" + c.init + ")");
+    }
   } else {
     spec = spikems_architecture(c.padded,
                                 c.neurons == "iir" ? Discretisation::IIR : Discretisation::FIR,

@@ -8,6 +8,7 @@
 #include <functional>
 #include <numeric>
 
+#include "common/error_text.h"
 #include "common/test_paths.h"
 #include "core/events/formats/npy.h"
 #include "core/events/formats/zip.h"
@@ -30,14 +31,7 @@ std::vector<uint8_t> make_npy(const std::string& dict, const std::vector<uint8_t
   return out;
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::error_of;
 
 TEST(Npy, RoundTripsEveryNumericType) {
   auto check = [](auto sample) {

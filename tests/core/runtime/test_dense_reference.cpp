@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "common/test_paths.h"
+#include "core/model/time_step.h"
 #include "core/runtime/dense_reference.h"
 #include "reference_case.h"
 
@@ -111,6 +113,42 @@ TEST(DenseReference, SingleNeuronMatchesHandComputation) {
     }
     EXPECT_GE(spikes, 2);  // 0.5 * eps peaks at 0.5: the neuron fires, recovers, fires again
   }
+}
+
+// A model moved to coarser steps with its time constants scaled (with_time_step, "steps") runs
+// the same spikes step for step on the same input spikes; kept in ms, it does not.
+TEST(DenseReference, TimeStepWithScaledConstantsKeepsEveryStep) {
+  ModelSpec m = spikems_architecture(true, Discretisation::IIR);
+  m.time_step_ms = 2;
+  std::mt19937 rng(5);
+  for (auto& l : m.layers) {
+    // Positive-leaning weights so that spikes reach the output.
+    std::normal_distribution<float> g(1.0f / float(l.in_channels),
+                                      2.0f / std::sqrt(float(l.in_channels) * 9));
+    for (auto& w : l.weight) w = g(rng);
+  }
+  DenseTensor in(16, 2, 32, 32);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (float& v : in.v) v = u(rng) < 0.08 ? 1.f : 0.f;
+  const auto want = dense_forward(m, in);
+  const auto steps = dense_forward(with_time_step(m, 5, TimeConstants::Steps, "test"), in);
+  const auto ms = dense_forward(with_time_step(m, 5, TimeConstants::Ms, "test"), in);
+  ASSERT_EQ(steps.size(), want.size());
+  for (size_t k = 0; k < want.size(); ++k) {
+    EXPECT_GT(want[k].spikes.sum(), 0) << "layer " << k + 1 << " is silent: the test is void";
+    Mismatch mm = compare(steps[k], want[k].spikes, m.layers[k].neuron.theta);
+    EXPECT_EQ(mm.count, mm.near_threshold) << "layer " << k + 1;
+    EXPECT_LE(mm.count, 2) << "layer " << k + 1;
+    double max_du = 0;
+    for (size_t i = 0; i < want[k].potential.v.size(); ++i)
+      max_du =
+          std::max(max_du, double(std::fabs(steps[k].potential.v[i] - want[k].potential.v[i])));
+    if (k == 0) {
+      EXPECT_LT(max_du, 1e-5);
+    }
+  }
+  // In ms, a 2 ms synapse decays 2.5x as far per 5 ms step: layer 1 already differs.
+  EXPECT_GT(compare(ms[0], want[0].spikes, m.layers[0].neuron.theta).count, 100);
 }
 
 // Geometry: a transposed conv places W[ci,co,ky,kx] at (s*y - p + ky, s*x - p + kx).
