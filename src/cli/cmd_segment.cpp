@@ -225,7 +225,6 @@ void run(const Args& a) {
   }
 
   SegmenterOptions so;
-  so.step_us = 0;  // the model's, moved to --time-step-us above
   so.label_tolerance_steps = a.tolerance;
   so.threads = a.threads;
   so.block_steps = a.block_steps > 0 ? a.block_steps : from_stdin ? 1 : 16;

@@ -595,7 +595,7 @@ TEST(Trainer, BadConfigsNameTheKey) {
                 .find("model.init_ann: starts a spiking network's data initialisation"),
             std::string::npos);
   EXPECT_NE(msg({"model.init_time_constants=\"seconds\"", "model.init=\"b.safetensors\""})
-                .find("model.init_time_constants: 'seconds': give \"steps\""),
+                .find("model.init_time_constants: \"seconds\" is not one of steps, ms"),
             std::string::npos);
   EXPECT_NE(msg({"model.init_time_constants=\"steps\""})
                 .find("model.init_time_constants: applies to a model.init file"),

@@ -123,7 +123,7 @@ ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResul
   const CalibrationPoint& best = r.points.at(r.best);
   ModelSpec m = load_model(opt.model);
   const double file_step_ms = m.time_step_ms;
-  if (opt.time_step_ms > 0 && std::abs(m.time_step_ms - opt.time_step_ms) > 1e-9 * opt.time_step_ms)
+  if (opt.time_step_ms > 0)
     m = with_time_step(std::move(m), opt.time_step_ms, TimeConstants::Steps, opt.model);
   m = with_output_threshold(std::move(m), best.factor, opt.model);
   m.output_gate_steps = best.gate_steps;  // the model's own when no gate was swept

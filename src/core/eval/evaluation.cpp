@@ -92,9 +92,10 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   for (const auto& p : paths) {
     ModelSpec m = load_model(p);
     if (opt.iir && m.type == ModelType::SNN) m = with_iir_neurons(std::move(m), p);
-    const bool retimed = opt.time_step_ms > 0 &&
-                         std::abs(m.time_step_ms - opt.time_step_ms) > 1e-9 * opt.time_step_ms;
-    if (retimed) m = with_time_step(std::move(m), opt.time_step_ms, TimeConstants::Steps, p);
+    const double file_step_ms = m.time_step_ms;
+    if (opt.time_step_ms > 0)
+      m = with_time_step(std::move(m), opt.time_step_ms, TimeConstants::Steps, p);
+    const bool retimed = m.time_step_ms != file_step_ms;
     check_windows(opt.windows_us, time_step_us(m), p);
     if (!opt.kalman_us.empty()) check_windows(opt.kalman_us, time_step_us(m), p + " (--kalman)");
     for (int64_t g : gates)

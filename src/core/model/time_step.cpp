@@ -1,8 +1,10 @@
 #include "core/model/time_step.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/util/error.h"
+#include "core/util/text_format.h"
 
 namespace spikems {
 
@@ -15,14 +17,19 @@ TimeConstants parse_time_constants(const std::string& text, const std::string& w
            "constants kept in milliseconds)");
 }
 
+bool same_time_step(double a_ms, double b_ms) {
+  return std::abs(a_ms - b_ms) <= 1e-9 * std::max(std::abs(a_ms), std::abs(b_ms));
+}
+
 ModelSpec with_time_step(ModelSpec model, double step_ms, TimeConstants keep,
                          const std::string& source) {
   if (!(std::isfinite(step_ms) && step_ms > 0))
-    fail(source, "", "time step of " + std::to_string(step_ms) + " ms: must be positive");
+    fail(source, "", "time step of " + fmt("%g", step_ms) + " ms: must be positive");
+  if (same_time_step(model.time_step_ms, step_ms)) return model;
   if (model.type != ModelType::SNN)
     fail(source, "",
          "an ANN-2D model's time step is its frame: train or run it at its own " +
-             std::to_string(model.time_step_ms) + " ms");
+             fmt("%g", model.time_step_ms) + " ms");
   const double old_ms = model.time_step_ms, ratio = step_ms / old_ms;
   if (keep == TimeConstants::Steps) {
     // Every kernel is a function of (time / tau) sampled at multiples of the step, so scaling
@@ -37,19 +44,19 @@ ModelSpec with_time_step(ModelSpec model, double step_ms, TimeConstants keep,
       const std::string why = "layer " + std::to_string(k + 1) + " ";
       if (l.neuron.discretisation == Discretisation::FIR)
         fail(source, "",
-             why + "has FIR kernels sampled at " + std::to_string(old_ms) +
+             why + "has FIR kernels sampled at " + fmt("%g", old_ms) +
                  " ms steps: keep the steps' dynamics (\"steps\") or convert it to IIR first");
       if (!l.delay.empty())
         fail(source, "",
-             why + "has delays counted in " + std::to_string(old_ms) +
+             why + "has delays counted in " + fmt("%g", old_ms) +
                  " ms steps: keep the steps' dynamics (\"steps\")");
     }
     if (model.output_gate_steps > 0) {
       const double steps = double(model.output_gate_steps) / ratio;
       if (std::abs(steps - std::round(steps)) > 1e-9)
         fail(source, "",
-             "the output gate of " + std::to_string(double(model.output_gate_steps) * old_ms) +
-                 " ms is not a whole number of " + std::to_string(step_ms) +
+             "the output gate of " + fmt("%g", double(model.output_gate_steps) * old_ms) +
+                 " ms is not a whole number of " + fmt("%g", step_ms) +
                  " ms steps: set another gate too");
       model.output_gate_steps = int(std::llround(steps));
     }

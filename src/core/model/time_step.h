@@ -20,8 +20,12 @@ enum class TimeConstants { Steps, Ms };
 // Parses "steps" or "ms"; throws Error naming `what` otherwise.
 TimeConstants parse_time_constants(const std::string& text, const std::string& what);
 
-// `model` with time_step_ms = step_ms, its neurons moved as `keep` says. Throws Error naming
-// `source` for a step that is not positive and finite, an ANN-2D model (its step is its frame),
+// Whether two steps are the same (within 1e-9 relative: steps are read from text and ms).
+bool same_time_step(double a_ms, double b_ms);
+
+// `model` with time_step_ms = step_ms, its neurons moved as `keep` says; at its own step (any
+// model, any `keep`) the model unchanged. Throws Error naming `source` for a step that is not
+// positive and finite, an ANN-2D model at another step (its step is its frame),
 // and, with Ms, FIR kernels (sampled at the old step), delays (counted in old steps) or an output
 // gate that is not a whole number of the new steps.
 ModelSpec with_time_step(ModelSpec model, double step_ms, TimeConstants keep,

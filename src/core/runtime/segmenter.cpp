@@ -9,8 +9,8 @@
 namespace spikems {
 
 namespace {
-int64_t model_step_us(const ModelSpec& m, int64_t forced) {
-  if (forced > 0) return forced;
+// Another step is another model (core/model/time_step.h: its time constants move with it).
+int64_t model_step_us(const ModelSpec& m) {
   return std::max<int64_t>(1, std::llround(m.time_step_ms * 1000.0));
 }
 
@@ -31,7 +31,7 @@ Segmenter::Segmenter(const ModelSpec& m, SensorSize sensor, SegmenterOptions opt
                      std::string source)
     : source_(std::move(source)),
       sensor_(sensor),
-      step_us_(model_step_us(m, opt.step_us)),
+      step_us_(model_step_us(m)),
       opt_(opt),
       net_(checked(m, sensor, source_), sensor.height, sensor.width),
       labeller_(sensor, net_.out_height(), net_.out_width(), net_.out_channels(),

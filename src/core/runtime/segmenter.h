@@ -23,7 +23,6 @@
 namespace spikems {
 
 struct SegmenterOptions {
-  int64_t step_us = 0;            // 0: the model's time step
   int label_tolerance_steps = 3;  // label window = latency (layers) + this
   int64_t mask_window_us = 0;     // 0: no mask frames
   int threads = 1;                // threads inside the network (StreamingNetwork::set_threads)

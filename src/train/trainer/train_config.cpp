@@ -340,11 +340,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
           "starts a spiking network's data initialisation: needs model.init = \"data\" and "
           "model.type = \"snn\"");
   if (!c.init_time_constants.empty()) {
-    if (c.init_time_constants != "steps" && c.init_time_constants != "ms")
-      b.bad("model", "init_time_constants",
-            "'" + c.init_time_constants +
-                "': give \"steps\" (each step's dynamics kept) or \"ms\" (time constants kept "
-                "in milliseconds)");
+    one_of(b, "model", "init_time_constants", c.init_time_constants, {"steps", "ms"});
     if (c.init == "data")
       b.bad("model", "init_time_constants", "applies to a model.init file: model.init is \"data\"");
   }

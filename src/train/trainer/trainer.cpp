@@ -47,7 +47,7 @@ ModelSpec initial_spec(const TrainConfig& c) {
   if (c.init != "data") {
     spec = load_model(c.init);  // fine-tuning: geometry and neurons from the file
     const double ts = double(c.sample.step_us) / 1000.0;
-    if (std::abs(spec.time_step_ms - ts) > 1e-9 * ts) {
+    if (!same_time_step(spec.time_step_ms, ts)) {
       // Setting the step alone would change every neuron's per-step decay: a 2 ms model at
       // 5 ms steps falls silent. Say which of the two meanings is wanted.
       if (c.init_time_constants.empty()) {

@@ -94,6 +94,13 @@ TEST(TimeStep, RefusesWhatCannotBeMoved) {
   ModelSpec ann = ann2d_architecture({8, 16}, false);
   EXPECT_NE(error_of([&] { with_time_step(ann, 5, TimeConstants::Steps, "src"); }).find("ANN-2D"),
             std::string::npos);
+  // At its own step any model comes back as it is, whatever it holds.
+  EXPECT_EQ(with_time_step(fir, fir.time_step_ms, TimeConstants::Ms, "src").layers[0].srm_kernel,
+            fir.layers[0].srm_kernel);
+  EXPECT_EQ(with_time_step(ann, ann.time_step_ms, TimeConstants::Steps, "src").type,
+            ModelType::ANN2D);
+  EXPECT_TRUE(same_time_step(2, 2 + 1e-12));
+  EXPECT_FALSE(same_time_step(2, 2.001));
   EXPECT_EQ(parse_time_constants("steps", "k"), TimeConstants::Steps);
   EXPECT_EQ(parse_time_constants("ms", "k"), TimeConstants::Ms);
   EXPECT_NE(error_of([] { parse_time_constants("seconds", "k"); }).find("'seconds'"),
