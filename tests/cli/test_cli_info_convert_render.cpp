@@ -176,6 +176,20 @@ TEST(CliInfoConvertRender, InfoDescribesAModelFile) {
   EXPECT_EQ(j["weights"], int64_t(2 * 4 + 4 * 6 + 6 * 8 + 8 * 6 + 12 * 4 + 8 * 2) * 9);
   EXPECT_EQ(j["latency_steps"], 6);
   EXPECT_EQ(j["shortest_path_steps"], 2);
+  EXPECT_EQ(j["srm_onset"], "next_step");
+  // Same-step neurons answer in the input's own step.
+  ModelSpec same = m;
+  for (auto& l : same.layers) l.neuron.srm_onset = SrmOnset::SameStep;
+  const std::string same_path = dir + "/same.safetensors";
+  save_model(same_path, same);
+  ASSERT_EQ(run_command(spikems_binary() + " info " + q(same_path), &out), 0) << out;
+  EXPECT_NE(out.find("reaches the output in its own step (srm_onset same_step)"), std::string::npos)
+      << out;
+  ASSERT_EQ(run_command(spikems_binary() + " info --json " + q(same_path), &out), 0) << out;
+  const auto js = nlohmann::json::parse(out).at(0);
+  EXPECT_EQ(js["srm_onset"], "same_step");
+  EXPECT_EQ(js["latency_steps"], 0);
+  EXPECT_EQ(js["shortest_path_steps"], 0);
   EXPECT_DOUBLE_EQ(j["output_gate_ms"].get<double>(), 6.0);
   EXPECT_DOUBLE_EQ(j["calibration"]["output_threshold_scale"].get<double>(), 1.5);
   // An ANN-2D with two past frames: 12 input channels, its frames named in both outputs.

@@ -32,8 +32,33 @@ std::vector<float> long_delayed_exp(double tau, double ts, double gain, int n) {
 }
 
 std::vector<TemporalKernel> all_kernels() {
-  return {TemporalKernel::fir({0.f, 0.8f, 1.f, 0.5f, 0.25f}), TemporalKernel::alpha(2.0, 1.0, 1.0),
-          TemporalKernel::delayed_exp(3.0, 1.0, -0.48), TemporalKernel::alpha(1.5, 0.5, -0.44)};
+  return {TemporalKernel::fir({0.f, 0.8f, 1.f, 0.5f, 0.25f}),
+          TemporalKernel::alpha(2.0, 1.0, 1.0),
+          TemporalKernel::delayed_exp(3.0, 1.0, -0.48),
+          TemporalKernel::alpha(1.5, 0.5, -0.44),
+          TemporalKernel::alpha_lead(2.0, 1.0, 1.0),
+          TemporalKernel::alpha_lead(1.0, 2.0, 0.7)};
+}
+
+// SrmOnset::SameStep: the alpha kernel sampled a step later, eps(Ts) at n = 0, so the psp of a
+// spike train is SLAYER's one step earlier: lead[t] = alpha[t + 1].
+TEST(Psp, SameStepKernelIsTheAlphaOneStepEarlier) {
+  const double ts = 2.0, tau = 1.0;
+  const auto lead = TemporalKernel::alpha_lead(tau, ts, 1.0);
+  const auto h = lead.impulse_response(3);
+  EXPECT_NEAR(h[0], (ts / tau) * std::exp(1 - ts / tau), 1e-15);
+  EXPECT_NEAR(h[1], (2 * ts / tau) * std::exp(1 - 2 * ts / tau), 1e-15);
+  torch::Tensor x = random_spikes(30, 40, 0.2, 3, torch::kDouble);
+  const torch::Tensor a = psp(x, TemporalKernel::alpha(tau, ts, 1.0), ts);
+  const torch::Tensor b = psp(x, lead, ts);
+  EXPECT_GT(b[0].abs().max().item<double>(), 0.0);
+  EXPECT_EQ(a[0].abs().max().item<double>(), 0.0);
+  EXPECT_LT((b.narrow(0, 0, 29) - a.narrow(0, 1, 29)).abs().max().item<double>(), 1e-12);
+  LayerSpec l;
+  l.neuron.discretisation = Discretisation::IIR;
+  l.neuron.tau_s = float(tau);
+  l.neuron.srm_onset = SrmOnset::SameStep;
+  EXPECT_EQ(TemporalKernel::srm(l, ts).form, TemporalKernel::Form::AlphaLead);
 }
 
 TEST(Psp, MatchesExplicitSumForEveryKernelForm) {

@@ -108,6 +108,17 @@ TEST(SparseKernels, SynapseMatchesDenseOnEveryLayerGeometryDouble) {
         compare_synapse(c, 0.05, torch::kDouble, 1e-11);
 }
 
+// SameStep neurons (model.srm_onset): the sparse path's own recursion of the lead kernel.
+TEST(SparseKernels, SynapseMatchesDenseWithSameStepOnset) {
+  torch::manual_seed(3);
+  for (Case c : network_layers(true, Discretisation::IIR)) {
+    c.layer.neuron.srm_onset = SrmOnset::SameStep;
+    ASSERT_EQ(TemporalKernel::srm(c.layer, 1.0).form, TemporalKernel::Form::AlphaLead);
+    compare_synapse(c, 0.05, torch::kFloat, 2e-5);
+    compare_synapse(c, 0.05, torch::kDouble, 1e-11);
+  }
+}
+
 // A hand-counted case: one spike at (t=0, c=0, y=2, x=2) through a 1->1 stride-2 conv with
 // padding 1 and weight w[ky][kx] = 10 ky + kx. Input row y reaches output row oy through tap
 // ky = y + 1 - 2 oy: oy = 1 (ky = 1) only, as ky = 3 and -1 do not exist; the same for columns.

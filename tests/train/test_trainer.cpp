@@ -403,6 +403,33 @@ TEST(Trainer, InitAtAnotherTimeStepNeedsTheKey) {
   }
 }
 
+// model.srm_onset: a model trained with it carries it (the runtime then answers in the input's
+// own step); a model.init file is switched; a bad value or FIR neurons are refused.
+TEST(Trainer, SrmOnsetIsSetOnEveryLayer) {
+  const std::string scratch = scratch_dir();
+  auto ov = tiny_overrides(1);
+  ov.push_back("run.val_full_s=0.0");
+  auto same = ov;
+  same.push_back("model.srm_onset=\"same_step\"");
+  ASSERT_EQ(train_quietly(same, scratch + "/same").steps, 1);
+  const ModelSpec m = load_model(scratch + "/same/model.safetensors");
+  for (const auto& l : m.layers) EXPECT_EQ(l.neuron.srm_onset, SrmOnset::SameStep);
+  auto back = ov;
+  back.push_back("model.init=\"" + scratch + "/same/model.safetensors\"");
+  back.push_back("model.srm_onset=\"next_step\"");
+  ASSERT_EQ(train_quietly(back, scratch + "/back").steps, 1);
+  for (const auto& l : load_model(scratch + "/back/model.safetensors").layers)
+    EXPECT_EQ(l.neuron.srm_onset, SrmOnset::NextStep);
+  auto bad = ov;
+  bad.push_back("model.srm_onset=\"soon\"");
+  expect_refused<Error>([&] { train_quietly(bad, scratch + "/bad"); },
+                        {"model.srm_onset", "next_step", "same_step"}, "an unknown onset");
+  auto fir = same;
+  fir.push_back("model.neurons=\"fir\"");
+  expect_refused<Error>([&] { train_quietly(fir, scratch + "/fir"); }, {"model.srm_onset", "iir"},
+                        "same_step with FIR neurons");
+}
+
 // Runs `spikems train` as a child process and kills it with SIGKILL once its first checkpoint
 // is on disk.
 void train_and_kill(const std::vector<std::string>& args, const std::string& dir) {

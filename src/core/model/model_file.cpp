@@ -120,6 +120,15 @@ void ModelSpec::validate(const std::string& src) const {
     if (type == ModelType::SNN && n.discretisation == Discretisation::FIR &&
         (l.srm_kernel.empty() || l.ref_kernel.empty()))
       fail(src, where, "FIR layer without sampled kernels");
+    if (type == ModelType::SNN && n.srm_onset != layers.front().neuron.srm_onset)
+      fail(src, where,
+           "mixes srm_onset \"same_step\" and \"next_step\" layers; the runtime needs one for "
+           "all");
+    if (type == ModelType::SNN && n.srm_onset == SrmOnset::SameStep &&
+        n.discretisation == Discretisation::FIR)
+      fail(src, where,
+           "srm_onset \"same_step\" needs IIR neurons (a FIR layer's stored kernel sets its own "
+           "onset)");
     if (l.srm_kernel.size() > 100000 || l.ref_kernel.size() > 100000)
       fail(src, where, "kernel longer than 100000 steps");
     if (!l.delay.empty() && int(l.delay.size()) != l.out_channels)
@@ -384,6 +393,9 @@ nlohmann::json spec_to_json(const ModelSpec& s) {
           {"refractory", n.refractory == RefractoryShape::SpikeMS ? "spikems" : "slayer"},
           {"discretisation", n.discretisation == Discretisation::FIR ? "fir" : "iir"},
           {"surrogate", n.surrogate == SurrogateForm::SpikeMS ? "spikems" : "slayer"}};
+    // Written only when not SLAYER's, so that older files rewrite byte for byte.
+    if (s.type == ModelType::SNN && n.srm_onset == SrmOnset::SameStep)
+      lj["neuron"]["srm_onset"] = "same_step";
     j["layers"].push_back(std::move(lj));
   }
   return j;
@@ -438,6 +450,9 @@ ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
       n.surrogate = parse_enum<SurrogateForm>(
           nj, "surrogate", {{"spikems", SurrogateForm::SpikeMS}, {"slayer", SurrogateForm::Slayer}},
           SurrogateForm::SpikeMS, src, where);
+      n.srm_onset = parse_enum<SrmOnset>(
+          nj, "srm_onset", {{"next_step", SrmOnset::NextStep}, {"same_step", SrmOnset::SameStep}},
+          SrmOnset::NextStep, src, where);
       s.layers.push_back(std::move(l));
     }
   } catch (const nlohmann::json::exception& e) {

@@ -33,6 +33,11 @@ enum class RefractoryShape { SpikeMS, Slayer };
 enum class Discretisation { FIR, IIR };
 // Surrogate gradient scale: SLAYER divides by tau_rho*theta; the SpikeMS code by theta.
 enum class SurrogateForm { Slayer, SpikeMS };
+// When an input spike first moves the potential (IIR layers). NextStep: SLAYER's sampled
+// kernel eps[n] = (nTs/tau) e^(1-nTs/tau), eps[0] = 0, so every layer answers one step late.
+// SameStep: the kernel sampled at the end of the step the spike arrives in, eps[n + 1], so a
+// spike reaches the next layer in its own step and coarse steps cost no latency per layer.
+enum class SrmOnset { NextStep, SameStep };
 
 struct NeuronParams {
   float theta = 0.22f;
@@ -44,6 +49,7 @@ struct NeuronParams {
   RefractoryShape refractory = RefractoryShape::SpikeMS;
   Discretisation discretisation = Discretisation::FIR;
   SurrogateForm surrogate = SurrogateForm::SpikeMS;
+  SrmOnset srm_onset = SrmOnset::NextStep;
 };
 
 struct LayerSpec {

@@ -58,9 +58,11 @@ nlohmann::json model_summary(const ModelSpec& m) {
   j["layers"] = std::move(layers);
   if (m.type == ModelType::SNN) {
     // Each layer answers a step after its input: the longest path is every layer, the
-    // shortest goes through the skips.
-    j["latency_steps"] = m.layers.size();
-    j["shortest_path_steps"] = shortest_path_steps(m);
+    // shortest goes through the skips. SameStep neurons answer in the step itself.
+    const bool same = m.layers.front().neuron.srm_onset == SrmOnset::SameStep;
+    j["srm_onset"] = same ? "same_step" : "next_step";
+    j["latency_steps"] = same ? 0 : int(m.layers.size());
+    j["shortest_path_steps"] = same ? 0 : shortest_path_steps(m);
     j["output_theta"] = m.layers.back().neuron.theta;
     j["output_gate_ms"] = m.output_gate_steps * m.time_step_ms;
   } else {
@@ -96,10 +98,12 @@ std::string model_summary_text(const std::string& path, const ModelSpec& m) {
                     std::to_string(j["weights"].get<int64_t>()) + " weights");
   line("time step",
        fmt("%g ms", m.time_step_ms) +
-           (snn ? "; an input spike reaches the output after " +
+           (!snn ? std::string()
+            : m.layers.front().neuron.srm_onset == SrmOnset::SameStep
+                ? "; an input spike reaches the output in its own step (srm_onset same_step)"
+                : "; an input spike reaches the output after " +
                       std::to_string(shortest_path_steps(m)) + " (through the skips) to " +
-                      std::to_string(m.layers.size()) + " steps"
-                : std::string()));
+                      std::to_string(m.layers.size()) + " steps"));
   line("input", m.input_width > 0
                     ? std::to_string(m.input_width) + " x " + std::to_string(m.input_height)
                     : std::string("any sensor size"));

@@ -8,6 +8,8 @@
 namespace spikems {
 
 double srm_kernel_value(const NeuronParams& n, double ts, int step) {
+  // SameStep: sampled at the end of the spike's own step, one step ahead of SLAYER's.
+  if (n.srm_onset == SrmOnset::SameStep) ++step;
   double t = step * ts / double(n.tau_s);
   return t * std::exp(1.0 - t);
 }

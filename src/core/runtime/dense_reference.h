@@ -49,7 +49,8 @@ DenseTensor dense_layer_input(const ModelSpec& model, size_t k, const DenseTenso
 // [T, Ca, H, W] and [T, Cb, H, W] -> [T, Ca + Cb, H, W]: a's channels, then b's.
 DenseTensor dense_concat_channels(const DenseTensor& a, const DenseTensor& b);
 
-// The continuous kernels sampled at n steps, untruncated (IIR layers): eps(n Ts) and nu[n].
+// The continuous kernels sampled at n steps, untruncated (IIR layers): eps(n Ts) (SameStep
+// onset: eps((n + 1) Ts)) and nu[n].
 double srm_kernel_value(const NeuronParams& n, double time_step_ms, int step);
 double refractory_kernel_value(const NeuronParams& n, double time_step_ms, int step);
 

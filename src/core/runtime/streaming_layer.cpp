@@ -20,6 +20,9 @@ StreamingLayer::StreamingLayer(const LayerSpec& l, int hin, int win)
       div_cin_(uint32_t(l.in_channels)),
       div_win_(uint32_t(win)) {
   if (hout_ <= 0 || wout_ <= 0) fail("runtime", "", "input too small for the layer");
+  same_step_ = l.neuron.srm_onset == SrmOnset::SameStep;
+  if (same_step_ && l.neuron.discretisation == Discretisation::FIR)
+    fail("runtime", "", "srm_onset \"same_step\" needs IIR neurons");
   if (!l.delay.empty())
     fail("runtime", "", "axonal delays are not supported by the streaming runtime");
   if (k_ < 1 || k_ > 32) fail("runtime", "", "kernels larger than 32 are not supported");

@@ -69,7 +69,11 @@ class StreamingLayer {
   // position holds the layer's C neurons). The measure of the update work besides SynOps.
   uint64_t visits() const { return visits_; }
   // Spikes emitted up to the current step (those step() computed ahead are not counted yet).
-  uint64_t spikes() const { return spikes_ - ahead_; }
+  uint64_t spikes() const { return same_step_ ? spikes_ : spikes_ - ahead_; }
+  // A layer of SrmOnset::SameStep neurons: what step(t) computes is the layer's output of step
+  // t itself (the kernel is the NextStep one a step ahead, so the arithmetic is the same and
+  // only the step the spikes belong to changes; potential(t + 1, n) is then u at step t).
+  bool same_step() const { return same_step_; }
 
   static std::unique_ptr<StreamingLayer> create(const LayerSpec& spec, double time_step_ms,
                                                 int in_height, int in_width);
@@ -404,6 +408,7 @@ class StreamingLayer {
   int unit_blocks_ = 0;
   int max_rows_ = 0;  // the most output rows one input row reaches
   bool scattered_input_ = false;
+  bool same_step_ = false;
   size_t seg_ky_stride_ = 0, seg_ci_stride_ = 0;
   std::vector<uint64_t> touched_bits_;  // one bit per output unit: reached this step
   struct Group {

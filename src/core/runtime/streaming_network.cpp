@@ -26,6 +26,8 @@ StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width)
     std::tie(nh_, nw_) = m.fitted_input_size(height, width);
     m.check_input_size(nh_, nw_, m.name);
   }
+  // validate() has checked that every layer has the same onset.
+  same_step_ = m.layers.front().neuron.srm_onset == SrmOnset::SameStep;
   int h = nh_, w = nw_;
   for (size_t k = 0; k < m.layers.size(); ++k) {
     const auto& l = m.layers[k];
@@ -282,25 +284,34 @@ const std::vector<uint32_t>& StreamingNetwork::step(const std::vector<uint32_t>&
   if (in_flight()) fail("streaming network", "", "step() while blocks are in flight");
   gate_record(&input, 1);
   const int L = int(layers_.size());
-  auto run = [&](int k) {
+  // Layer k from its sources' spikes `from` (of step t) into `to`.
+  auto run = [&](int k, const std::vector<std::vector<uint32_t>>& from, std::vector<uint32_t>& to) {
     const int skip = map_[size_t(k)].skip;
     const std::vector<uint32_t>& in =
-        input_of(size_t(k), k == 0 ? input : now_[size_t(k - 1)],
-                 skip >= 0 ? &now_[size_t(skip)] : nullptr, scratch_[size_t(k)]);
-    ahead_[size_t(k)].clear();
+        input_of(size_t(k), k == 0 ? input : from[size_t(k - 1)],
+                 skip >= 0 ? &from[size_t(skip)] : nullptr, scratch_[size_t(k)]);
+    to.clear();
     const auto t0 = std::chrono::steady_clock::now();
-    layers_[size_t(k)]->step(t_, in.data(), in.size(), ahead_[size_t(k)]);
+    layers_[size_t(k)]->step(t_, in.data(), in.size(), to);
     seconds_[size_t(k)] +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     in_spikes_[size_t(k)] += in.size();
   };
-  if (pool_) {
-    sort_layers();
-    pool_->run(L, [&](int i) { run(order_[size_t(i)]); });
-  } else
-    for (int k = 0; k < L; ++k) run(k);
-  emitted_.swap(now_);  // spikes of t
-  now_.swap(ahead_);    // spikes of t+1; ahead_ holds buffers to reuse
+  if (same_step_) {
+    // Layer k takes layer k-1's spikes of this very step: one after another, no threads.
+    for (int k = 0; k < L; ++k) run(k, emitted_, emitted_[size_t(k)]);
+  } else {
+    // Each layer reads the spikes of t its sources made the step before (now_) and writes
+    // its own of t+1: independent, so the layers may run in parallel.
+    if (pool_) {
+      sort_layers();
+      pool_->run(L,
+                 [&](int i) { run(order_[size_t(i)], now_, ahead_[size_t(order_[size_t(i)])]); });
+    } else
+      for (int k = 0; k < L; ++k) run(k, now_, ahead_[size_t(k)]);
+    emitted_.swap(now_);  // spikes of t
+    now_.swap(ahead_);    // spikes of t+1; ahead_ holds buffers to reuse
+  }
   gate_outputs(&emitted_.back(), 1);
   ++t_;
   ++taken_;
@@ -312,8 +323,19 @@ void StreamingNetwork::run_layer_block(size_t k, int64_t t0, const std::vector<u
                                        std::vector<std::vector<uint32_t>>& out) {
   if (out.size() < n) out.resize(n);
   if (n == 0) return;
-  out[0].swap(now_[k]);
   const auto c0 = std::chrono::steady_clock::now();
+  if (same_step_) {  // step t0 + j's spikes are those of step t0 + j: no carry
+    for (size_t j = 0; j < n; ++j) {
+      out[j].clear();
+      const std::vector<uint32_t>& x = input_of(k, in[j], skip ? &skip[j] : nullptr, scratch_[k]);
+      layers_[k]->step(t0 + int64_t(j), x.data(), x.size(), out[j]);
+      in_spikes_[k] += x.size();
+    }
+    seconds_[k] += std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
+    emitted_[k] = out[n - 1];
+    return;
+  }
+  out[0].swap(now_[k]);
   for (size_t j = 0; j < n; ++j) {
     std::vector<uint32_t>& dst = j + 1 < n ? out[j + 1] : now_[k];
     dst.clear();

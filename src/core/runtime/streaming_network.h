@@ -107,11 +107,16 @@ class StreamingNetwork {
   bool in_flight() const { return taken_ > t_; }
   // Threads for step(): within a step, each layer reads only its predecessor's (and skip
   // source's) spikes of t (computed the step before) and writes its own of t+1, so the layers
-  // run in parallel. Results do not depend on the thread count.
+  // run in parallel. Results do not depend on the thread count. A model of SameStep neurons
+  // (same_step()) runs its layers one after another within a step (each needs its
+  // predecessor's spikes of that step), so there threads help through blocks only.
   void set_threads(int n);
 
-  int64_t steps_done() const { return t_; }                  // steps whose output was returned
-  int latency_steps() const { return int(layers_.size()); }  // minimum, one per layer
+  int64_t steps_done() const { return t_; }  // steps whose output was returned
+  // Minimum steps from an input to the output: one per layer, none for SameStep neurons.
+  int latency_steps() const { return same_step_ ? 0 : int(layers_.size()); }
+  // Every layer's neurons are SrmOnset::SameStep (a model mixing the two is refused).
+  bool same_step() const { return same_step_; }
   // The caller's sensor size, the geometry of the input indices.
   int in_height() const { return h_; }
   int in_width() const { return w_; }
@@ -151,6 +156,7 @@ class StreamingNetwork {
   int h_, w_;                  // the caller's sensor
   int nh_, nw_;                // the first layer's input (fitted for skips)
   int64_t t_ = 0, taken_ = 0;  // steps whose output was returned; steps taken in
+  bool same_step_ = false;     // SrmOnset::SameStep: layer k takes layer k-1's spikes of t
   std::vector<std::unique_ptr<StreamingLayer>> layers_;
   // How layer k's input is made from its sources: for layer 0, the sensor rows moved to the
   // network's width (when they differ); for a layer with a skip, the concatenation.

@@ -15,7 +15,7 @@ namespace spikems::train::cuda {
 namespace {
 
 constexpr int kThreads = 256;
-enum Form { kFIR = 0, kAlpha = 1, kDelayedExp = 2 };
+enum Form { kFIR = 0, kAlpha = 1, kDelayedExp = 2, kAlphaLead = 3 };
 
 __device__ __forceinline__ float mul(float a, float b) {
   return __fmul_rn(a, b);
@@ -61,6 +61,10 @@ __global__ void filter_kernel(const S* __restrict__ x, S* __restrict__ y, int64_
     if (k.form == kAlpha) {
       r = mul(a, add(r, q));
       q = add(mul(a, q), xv);
+      y[t * N + n] = mul(g, r);
+    } else if (k.form == kAlphaLead) {
+      q = add(mul(a, q), xv);
+      r = mul(a, add(r, q));
       y[t * N + n] = mul(g, r);
     } else {
       y[t * N + n] = mul(g, q);

@@ -15,7 +15,7 @@ constexpr int kMaxTaps = 256;  // longer FIR kernels take the tensor-op path
 
 // A temporal kernel (TemporalKernel) in launchable form.
 struct KernelDesc {
-  int form = 0;  // 0 FIR, 1 Alpha, 2 DelayedExp (TemporalKernel::Form order)
+  int form = 0;  // 0 FIR, 1 Alpha, 2 DelayedExp, 3 AlphaLead (TemporalKernel::Form order)
   int taps = 0;
   float tap[kMaxTaps] = {};
   double decay = 0, gain = 0;

@@ -32,6 +32,14 @@ TemporalKernel TemporalKernel::alpha(double tau, double ts, double amplitude) {
   return k;
 }
 
+TemporalKernel TemporalKernel::alpha_lead(double tau, double ts, double amplitude) {
+  // h[n] = alpha's h[n + 1]: the same recursion with the drive entering before the output
+  // state is advanced (q first, then r), so y[t] = gain * sum_i (i + 1) a^(i+1) x[t - i].
+  TemporalKernel k = alpha(tau, ts, amplitude);
+  k.form = Form::AlphaLead;
+  return k;
+}
+
 TemporalKernel TemporalKernel::delayed_exp(double tau, double ts, double gain) {
   TemporalKernel k;
   k.form = Form::DelayedExp;
@@ -42,6 +50,7 @@ TemporalKernel TemporalKernel::delayed_exp(double tau, double ts, double gain) {
 
 TemporalKernel TemporalKernel::srm(const LayerSpec& l, double ts) {
   if (l.neuron.discretisation == Discretisation::FIR) return fir(l.srm_kernel);
+  if (l.neuron.srm_onset == SrmOnset::SameStep) return alpha_lead(l.neuron.tau_s, ts, 1.0);
   return alpha(l.neuron.tau_s, ts, 1.0);
 }
 
@@ -62,6 +71,9 @@ std::vector<double> TemporalKernel::impulse_response(int count) const {
         break;
       case Form::Alpha:
         h[n] = gain * n * std::pow(decay, n);
+        break;
+      case Form::AlphaLead:
+        h[n] = gain * (n + 1) * std::pow(decay, n + 1);
         break;
       case Form::DelayedExp:
         h[n] = n == 0 ? 0.0 : gain * std::pow(decay, n - 1);
@@ -95,6 +107,10 @@ torch::Tensor apply_temporal_kernel_ops(const torch::Tensor& x, const TemporalKe
     if (k.form == TemporalKernel::Form::Alpha) {
       r = a * (r + q);
       q = a * q + x[t];
+      out[size_t(t)] = (scale * k.gain) * r;
+    } else if (k.form == TemporalKernel::Form::AlphaLead) {
+      q = a * q + x[t];
+      r = a * (r + q);
       out[size_t(t)] = (scale * k.gain) * r;
     } else {
       out[size_t(t)] = (scale * k.gain) * q;
@@ -135,6 +151,7 @@ void iir_cpu(const S* x, S* y, int64_t T, int64_t N, const TemporalKernel& k, S 
              bool reverse) {
   const S a = S(k.decay), g = S(scale * k.gain);
   const bool alpha = k.form == TemporalKernel::Form::Alpha;
+  const bool lead = k.form == TemporalKernel::Form::AlphaLead;
   at::parallel_for(0, N, kGrain, [&](int64_t n0, int64_t n1) {
     const int64_t len = n1 - n0;
     std::vector<S> qv(static_cast<size_t>(len), S(0)), rv(size_t(len), S(0));
@@ -148,6 +165,12 @@ void iir_cpu(const S* x, S* y, int64_t T, int64_t N, const TemporalKernel& k, S 
         for (int64_t n = 0; n < len; ++n) {
           r[n] = a * (r[n] + q[n]);
           q[n] = a * q[n] + xr[n];
+          yr[n] = g * r[n];
+        }
+      } else if (lead) {
+        for (int64_t n = 0; n < len; ++n) {
+          q[n] = a * q[n] + xr[n];
+          r[n] = a * (r[n] + q[n]);
           yr[n] = g * r[n];
         }
       } else {

@@ -4,6 +4,7 @@
 // h is either a sampled, truncated FIR kernel (as SLAYER stores it) or one of the two exact
 // recursions of the continuous SRM kernels (IIR, O(1) state per neuron, no truncation):
 //   Alpha:        h[n] = gain * n * a^n                 (2nd order, double pole a = e^{-Ts/tau})
+//   AlphaLead:    h[n] = gain * (n+1) * a^(n+1)         (the same, one step earlier: h[0] > 0)
 //   DelayedExp:   h[0] = 0, h[n] = gain * a^(n-1), n>=1 (1st order, delayed one step)
 #pragma once
 
@@ -16,7 +17,7 @@
 namespace spikems::train {
 
 struct TemporalKernel {
-  enum class Form { FIR, Alpha, DelayedExp };
+  enum class Form { FIR, Alpha, DelayedExp, AlphaLead };  // neuron_cuda.h keeps this order
   Form form = Form::FIR;
   std::vector<float> taps;  // FIR: h[0..K-1]
   double decay = 0;         // IIR: a
@@ -24,10 +25,12 @@ struct TemporalKernel {
 
   static TemporalKernel fir(std::vector<float> taps);
   static TemporalKernel alpha(double tau, double ts, double gain_factor);
+  // alpha() sampled one step later: an input reaches the output in its own step.
+  static TemporalKernel alpha_lead(double tau, double ts, double gain_factor);
   static TemporalKernel delayed_exp(double tau, double ts, double gain);
 
   // The spike-response kernel eps[n] = (nTs/tau) e^{1-nTs/tau} of a layer (FIR: the layer's
-  // stored taps; IIR: the exact recursion).
+  // stored taps; IIR: the exact recursion, AlphaLead for SrmOnset::SameStep).
   static TemporalKernel srm(const LayerSpec& l, double ts);
   // The refractory kernel nu of a layer (FIR: stored taps; IIR: DelayedExp for the SpikeMS
   // shape, Alpha for SLAYER's).

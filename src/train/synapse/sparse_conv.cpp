@@ -166,6 +166,12 @@ void forward_fused(const Nonzeros<S>& nz, const S* wt, S* u, int64_t T, int64_t 
                 qc[p] = a * qc[p] + xc[p * co];
                 yc[p] = gain * rc[p];
               }
+            } else if (k.form == TemporalKernel::Form::AlphaLead) {
+              for (int64_t p = 0; p < P; ++p) {
+                qc[p] = a * qc[p] + xc[p * co];
+                rc[p] = a * (rc[p] + qc[p]);
+                yc[p] = gain * rc[p];
+              }
             } else {  // DelayedExp
               for (int64_t p = 0; p < P; ++p) {
                 yc[p] = gain * qc[p];
@@ -219,6 +225,12 @@ void backward_fused(const Nonzeros<S>& nz, const S* gu, S* gc, S* dwt, int64_t T
           for (int64_t n = 0; n < N; ++n) {
             r[size_t(n)] = a * (r[size_t(n)] + q[size_t(n)]);
             q[size_t(n)] = a * q[size_t(n)] + x[n];
+            y[n] = gain * r[size_t(n)];
+          }
+        } else if (k.form == TemporalKernel::Form::AlphaLead) {
+          for (int64_t n = 0; n < N; ++n) {
+            q[size_t(n)] = a * q[size_t(n)] + x[n];
+            r[size_t(n)] = a * (r[size_t(n)] + q[size_t(n)]);
             y[n] = gain * r[size_t(n)];
           }
         } else {

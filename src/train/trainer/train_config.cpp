@@ -248,6 +248,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind_list("model", "init_rates", c.init_rates);
   b.bind("model", "init_ann", c.init_ann);
   b.bind("model", "init_time_constants", c.init_time_constants);
+  b.bind("model", "srm_onset", c.srm_onset);
   b.bind_sources("data", "train", c.train, "train");
   b.bind_sources("data", "val", c.val, "val");
   b.bind_sources("data", "val_static", c.val_static, "all");
@@ -343,6 +344,11 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
     one_of(b, "model", "init_time_constants", c.init_time_constants, {"steps", "ms"});
     if (c.init == "data")
       b.bad("model", "init_time_constants", "applies to a model.init file: model.init is \"data\"");
+  }
+  if (!c.srm_onset.empty()) {
+    one_of(b, "model", "srm_onset", c.srm_onset, {"next_step", "same_step"});
+    if (c.srm_onset == "same_step" && c.init == "data" && c.neurons == "fir")
+      b.bad("model", "srm_onset", "\"same_step\" needs model.neurons = \"iir\"");
   }
   for (double r : c.init_rates)
     if (!(r > 0 && r < 1)) b.bad("model", "init_rates", "rates must lie in (0, 1)");

@@ -58,6 +58,10 @@ struct TrainConfig {
   // time constants so each step behaves as before, "ms" keeps them in milliseconds
   // (core/model/time_step.h). Empty: such a file is refused.
   std::string init_time_constants;
+  // "next_step" (SLAYER's kernel: one step of latency per layer) or "same_step" (the kernel
+  // sampled at the end of the spike's step, core/model/model_file.h SrmOnset), set on every
+  // layer; empty: the model file's own (init = "data": next_step).
+  std::string srm_onset;
   // [data]
   std::vector<DatasetSource> train, val;
   // Static scenes (every event background, e.g. the simulator's `poster` preset with flat

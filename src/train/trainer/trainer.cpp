@@ -74,6 +74,13 @@ ModelSpec initial_spec(const TrainConfig& c) {
   }
   if (c.tau_rho > 0)
     for (auto& l : spec.layers) l.neuron.tau_rho = float(c.tau_rho);
+  if (!c.srm_onset.empty() && spec.type == ModelType::SNN) {
+    // A file's weights keep their meaning only roughly: each layer now answers a step earlier,
+    // so the paths through the skips meet at other relative delays (train on).
+    for (auto& l : spec.layers)
+      l.neuron.srm_onset = c.srm_onset == "same_step" ? SrmOnset::SameStep : SrmOnset::NextStep;
+    spec.validate("model.srm_onset");
+  }
   return spec;
 }
 

@@ -414,5 +414,27 @@ TEST(ModelFile, OutputGateRoundTripsAndIsValidated) {
   expect_error([&] { a.validate("ann"); }, {"output gate", "spiking models"});
 }
 
+// model.srm_onset: written only when "same_step" (older files rewrite unchanged), read back,
+// and refused where the runtime cannot run it (mixed onsets, FIR layers).
+TEST(ModelFile, SrmOnsetRoundTripsAndIsValidated) {
+  ModelSpec s = spikems_architecture(true, Discretisation::IIR, {4, 6, 8}, {}, true);
+  EXPECT_FALSE(spec_to_json(s)["layers"][0]["neuron"].contains("srm_onset"));
+  for (auto& l : s.layers) l.neuron.srm_onset = SrmOnset::SameStep;
+  EXPECT_EQ(spec_to_json(s)["layers"][3]["neuron"]["srm_onset"], "same_step");
+  const auto dir = test::scratch_dir();
+  save_model(dir + "/same.safetensors", s);
+  const ModelSpec r = load_model(dir + "/same.safetensors");
+  for (const auto& l : r.layers) EXPECT_EQ(l.neuron.srm_onset, SrmOnset::SameStep);
+  ModelSpec mixed = s;
+  mixed.layers[2].neuron.srm_onset = SrmOnset::NextStep;
+  expect_error([&] { mixed.validate("m"); }, {"layer 2", "mixes srm_onset"});
+  ModelSpec fir = spikems_architecture(true, Discretisation::FIR, {4, 6, 8});
+  for (auto& l : fir.layers) l.neuron.srm_onset = SrmOnset::SameStep;
+  expect_error([&] { fir.validate("m"); }, {"layer 0", "needs IIR neurons"});
+  nlohmann::json j = spec_to_json(s);
+  j["layers"][1]["neuron"]["srm_onset"] = "soon";
+  EXPECT_THROW(spec_from_json(j, "m"), Error);
+}
+
 }  // namespace
 }  // namespace spikems

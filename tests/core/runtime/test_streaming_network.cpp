@@ -54,10 +54,12 @@ struct Diff {
   double max_du = 0;  // largest |u_stream - u_dense| / max(1, |u_dense|)
 };
 
-// Runs one streaming layer on `in` (teacher forcing) and compares with the dense layer.
+// Runs one streaming layer on `in` (teacher forcing) and compares with the dense layer. A
+// SameStep layer's spikes of step t are those its step(t) computes (labelled t + 1 inside it).
 Diff compare_layer(StreamingLayer& sl, const DenseTensor& in, const DenseLayerOutput& want,
                    float theta, int64_t t_offset = 0) {
   Diff d;
+  const int64_t lead = sl.same_step() ? 1 : 0;
   const int C = want.spikes.C, H = want.spikes.H, W = want.spikes.W;
   EXPECT_EQ(sl.out_channels(), C);
   EXPECT_EQ(sl.out_height(), H);
@@ -67,7 +69,9 @@ Diff compare_layer(StreamingLayer& sl, const DenseTensor& in, const DenseLayerOu
   sl.record_potentials(true);
   for (int t = 0; t < in.T; ++t) {
     out.clear();
-    sl.fire(t + t_offset, out);
+    const auto s = spikes_at(in, t);
+    if (lead) sl.drive(t + t_offset, s.data(), s.size());
+    sl.fire(t + t_offset + lead, out);
     std::fill(got.begin(), got.end(), 0);
     for (uint32_t n : out) got[n] = 1;
     for (int y = 0; y < H; ++y)
@@ -75,7 +79,7 @@ Diff compare_layer(StreamingLayer& sl, const DenseTensor& in, const DenseLayerOu
         for (int c = 0; c < C; ++c) {
           uint32_t n = uint32_t((y * W + x) * C + c);
           float ud = want.potential.at(t, c, y, x);
-          float us = sl.potential(t + t_offset, n);
+          float us = sl.potential(t + t_offset + lead, n);
           d.max_du =
               std::max(d.max_du, std::fabs(double(ud) - us) / std::max(1.0, std::fabs(double(ud))));
           if (got[n] != (want.spikes.at(t, c, y, x) != 0)) {
@@ -84,8 +88,7 @@ Diff compare_layer(StreamingLayer& sl, const DenseTensor& in, const DenseLayerOu
               ++d.far_from_threshold;
           }
         }
-    auto s = spikes_at(in, t);
-    sl.drive(t + t_offset, s.data(), s.size());
+    if (!lead) sl.drive(t + t_offset, s.data(), s.size());
   }
   return d;
 }
@@ -273,6 +276,38 @@ TEST(StreamingNetwork, IirRandomInputMatchesDense) {
   int spikes = 0;
   check_model(m, make_input(60, 24, 32, false, 8), 2e-4, &spikes);
   EXPECT_GT(spikes, 50);
+}
+
+// SameStep neurons (model.srm_onset): the kernel sampled a step later, every layer answering in
+// the step of its input, the layers stepped one after another.
+ModelSpec same_step(ModelSpec m) {
+  for (auto& l : m.layers) l.neuron.srm_onset = SrmOnset::SameStep;
+  return m;
+}
+
+TEST(StreamingNetwork, IirSameStepMatchesDense) {
+  const ModelSpec m =
+      same_step(random_model(true, Discretisation::IIR, RefractoryShape::SpikeMS, 7, 1.0f));
+  int spikes = 0;
+  check_model(m, make_input(60, 24, 32, false, 8), 2e-4, &spikes);
+  EXPECT_GT(spikes, 50);
+  // The first layer answers an input of step 0 at step 0: u[0] = w eps(Ts) (SLAYER's onset: 0).
+  const DenseTensor one = [] {
+    DenseTensor d(3, 2, 8, 8);
+    d.at(0, 1, 4, 4) = 1;
+    return d;
+  }();
+  const LayerSpec& l = m.layers.front();
+  const auto same = dense_layer_forward(l, m.time_step_ms, one);
+  ModelSpec next = m;
+  next.layers.front().neuron.srm_onset = SrmOnset::NextStep;
+  const auto late = dense_layer_forward(next.layers.front(), m.time_step_ms, one);
+  // Output (c, 2, 2) of the stride-2 3x3 padded conv reaches input (4, 4) through tap (1, 1).
+  const double ts = m.time_step_ms, tau = l.neuron.tau_s;
+  const double w = l.weight[((size_t(0) * 2 + 1) * 3 + 1) * 3 + 1];
+  EXPECT_NEAR(same.potential.at(0, 0, 2, 2), w * (ts / tau) * std::exp(1 - ts / tau), 1e-6);
+  EXPECT_EQ(late.potential.at(0, 0, 2, 2), 0.f);
+  EXPECT_NEAR(same.potential.at(0, 0, 2, 2), late.potential.at(1, 0, 2, 2), 1e-6);
 }
 
 TEST(StreamingNetwork, IirSlayerRefractoryStructuredMatchesDense) {
@@ -491,12 +526,15 @@ constexpr int kSkipH = 13, kSkipW = 21;
 // with SLAYER's refractory form runs the ring layers, whose spikes come unsorted (the
 // concatenation sorts them).
 TEST(StreamingNetwork, SkipModelMatchesDense) {
-  for (auto [disc, ref] : {std::pair{Discretisation::FIR, RefractoryShape::SpikeMS},
-                           {Discretisation::IIR, RefractoryShape::SpikeMS},
-                           {Discretisation::FIR, RefractoryShape::Slayer}}) {
+  for (auto [disc, ref, same] : {std::tuple{Discretisation::FIR, RefractoryShape::SpikeMS, false},
+                                 {Discretisation::IIR, RefractoryShape::SpikeMS, false},
+                                 {Discretisation::FIR, RefractoryShape::Slayer, false},
+                                 {Discretisation::IIR, RefractoryShape::SpikeMS, true}}) {
     SCOPED_TRACE(std::string(disc == Discretisation::FIR ? "FIR" : "IIR") +
-                 (ref == RefractoryShape::Slayer ? ", SLAYER refractory" : ""));
-    const ModelSpec m = random_skip_model(disc, 41, ref, 0.3f);
+                 (ref == RefractoryShape::Slayer ? ", SLAYER refractory" : "") +
+                 (same ? ", same-step onset" : ""));
+    const ModelSpec m = same ? same_step(random_skip_model(disc, 41, ref, 0.3f))
+                             : random_skip_model(disc, 41, ref, 0.3f);
     const DenseTensor input = make_input(40, kSkipH, kSkipW, false, 42);
     const auto outs = dense_forward(m, input);
     const DenseTensor net_in = dense_network_input(m, input);
@@ -583,13 +621,16 @@ TEST(StreamingNetwork, PartialSkipsMatchDense) {
 // layer 0 made five rounds before), give the spikes of step() for a model with skips.
 TEST(StreamingNetwork, SkipModelBlocksAndThreadsGiveIdenticalResults) {
   for (int threads : {1, 2, 3})
-    for (auto [disc, ref] : {std::pair{Discretisation::FIR, RefractoryShape::SpikeMS},
-                             {Discretisation::IIR, RefractoryShape::SpikeMS},
-                             {Discretisation::FIR, RefractoryShape::Slayer}}) {
+    for (auto [disc, ref, same] : {std::tuple{Discretisation::FIR, RefractoryShape::SpikeMS, false},
+                                   {Discretisation::IIR, RefractoryShape::SpikeMS, false},
+                                   {Discretisation::FIR, RefractoryShape::Slayer, false},
+                                   {Discretisation::IIR, RefractoryShape::SpikeMS, true}}) {
       SCOPED_TRACE(std::to_string(threads) + " threads, " +
                    (disc == Discretisation::FIR ? "FIR" : "IIR") +
-                   (ref == RefractoryShape::Slayer ? ", SLAYER refractory" : ""));
+                   (ref == RefractoryShape::Slayer ? ", SLAYER refractory" : "") +
+                   (same ? ", same-step onset" : ""));
       ModelSpec m = random_skip_model(disc, 43, ref, 0.3f);
+      if (same) m = same_step(std::move(m));
       expect_blocks_identical(m, make_input(47, kSkipH, kSkipW, false, 44), threads);
     }
 }
