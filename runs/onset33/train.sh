@@ -7,14 +7,19 @@
 # to 20 %, lr 2e-4 cosine, weight average 0.995, batch 4, one thread).
 #   same2: at the model's 2 ms steps
 #   same5: at 5 ms steps (time constants scaled by 5/2: each step behaves as the 2 ms one did)
-# Usage: [SPIKEMS=build/spikems] [STEPS=600] [TIME_LIMIT=95min] runs/onset33/train.sh same2|same5 [MORE ARGS]
+#   same10: at 10 ms steps from same5's best (the shipped default before calibration), scaled 2x
+# Usage: [SPIKEMS=build/spikems] [STEPS=600] [TIME_LIMIT=95min] runs/onset33/train.sh same2|same5|same10 [MORE ARGS]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 SAME=(--set 'model.srm_onset="same_step"')
-case "${1:?same2 or same5}" in
+case "${1:?same2, same5 or same10}" in
   same2) ROOT=runs/onset33/same2 exec runs/drop29/train.sh control "${SAME[@]}" "${@:2}" ;;
   same5)
     ROOT=runs/onset33/same5 exec runs/drop29/train.sh control "${SAME[@]}" \
       --set sample.step_ms=5 --set 'model.init_time_constants="steps"' "${@:2}" ;;
-  *) echo "unknown run $1 (same2 or same5)" >&2; exit 1 ;;
+  same10)
+    INIT=runs/onset33/same5/control/best.safetensors ROOT=runs/onset33/same10 \
+      exec runs/drop29/train.sh control "${SAME[@]}" \
+      --set sample.step_ms=10 --set 'model.init_time_constants="steps"' "${@:2}" ;;
+  *) echo "unknown run $1 (same2, same5 or same10)" >&2; exit 1 ;;
 esac
