@@ -99,11 +99,11 @@ std::string model_summary_text(const std::string& path, const ModelSpec& m) {
   line("time step",
        fmt("%g ms", m.time_step_ms) +
            (!snn ? std::string()
-            : m.layers.front().neuron.srm_onset == SrmOnset::SameStep
+            : j["srm_onset"] == "same_step"
                 ? "; an input spike reaches the output in its own step (srm_onset same_step)"
                 : "; an input spike reaches the output after " +
-                      std::to_string(shortest_path_steps(m)) + " (through the skips) to " +
-                      std::to_string(m.layers.size()) + " steps"));
+                      std::to_string(j["shortest_path_steps"].get<int>()) +
+                      " (through the skips) to " + std::to_string(m.layers.size()) + " steps"));
   line("input", m.input_width > 0
                     ? std::to_string(m.input_width) + " x " + std::to_string(m.input_height)
                     : std::string("any sensor size"));

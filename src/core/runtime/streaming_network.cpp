@@ -323,21 +323,12 @@ void StreamingNetwork::run_layer_block(size_t k, int64_t t0, const std::vector<u
                                        std::vector<std::vector<uint32_t>>& out) {
   if (out.size() < n) out.resize(n);
   if (n == 0) return;
+  // Next-step neurons: out[0] gets the spikes of t0 computed before and step t0 + j writes
+  // those of t0 + j + 1 (the last into now_[k]); same-step neurons write those of t0 + j.
+  if (!same_step_) out[0].swap(now_[k]);
   const auto c0 = std::chrono::steady_clock::now();
-  if (same_step_) {  // step t0 + j's spikes are those of step t0 + j: no carry
-    for (size_t j = 0; j < n; ++j) {
-      out[j].clear();
-      const std::vector<uint32_t>& x = input_of(k, in[j], skip ? &skip[j] : nullptr, scratch_[k]);
-      layers_[k]->step(t0 + int64_t(j), x.data(), x.size(), out[j]);
-      in_spikes_[k] += x.size();
-    }
-    seconds_[k] += std::chrono::duration<double>(std::chrono::steady_clock::now() - c0).count();
-    emitted_[k] = out[n - 1];
-    return;
-  }
-  out[0].swap(now_[k]);
   for (size_t j = 0; j < n; ++j) {
-    std::vector<uint32_t>& dst = j + 1 < n ? out[j + 1] : now_[k];
+    std::vector<uint32_t>& dst = same_step_ ? out[j] : j + 1 < n ? out[j + 1] : now_[k];
     dst.clear();
     const std::vector<uint32_t>& x = input_of(k, in[j], skip ? &skip[j] : nullptr, scratch_[k]);
     layers_[k]->step(t0 + int64_t(j), x.data(), x.size(), dst);
