@@ -5,6 +5,10 @@
 # find_default_model() (src/core/model/default_model.cpp) looks for the model at
 # <exe dir>/../share/spikems/models/: bin/ and share/ must stay siblings.
 install(TARGETS spikems RUNTIME DESTINATION bin)
+# The LibTorch commands' program (src/cli/torch_helper.h): found at <exe dir>/../lib/spikems/.
+if(TARGET spikems-torch)
+  install(TARGETS spikems-torch RUNTIME DESTINATION lib/spikems)
+endif()
 install(FILES models/spikems-default.safetensors models/README.md
         DESTINATION share/spikems/models)
 # The simulator's presets are compiled into the binary (configs/sim/*.toml →

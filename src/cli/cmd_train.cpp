@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "cli/command.h"
+#include "cli/torch_helper.h"
 #include "core/util/duration.h"
 #include "core/util/error.h"
 #include "train/host_memory.h"
@@ -72,8 +73,7 @@ void run(const Args& a) {
 
 void add(CLI::App& app) {
   auto a = std::make_shared<Args>();
-  auto* cmd = app.add_subcommand(
-      "train", "Train the SpikeMS network on labelled event data (simulated or recorded)");
+  auto* cmd = app.add_subcommand("train", spikems::cli::torch_command("train").description);
   cmd->add_option("--config,-c", a->config,
                   "training configuration (TOML, configs/train/; or a run's config.json)")
       ->check(CLI::ExistingFile);

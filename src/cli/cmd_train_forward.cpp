@@ -4,6 +4,7 @@
 #include <cstdio>
 
 #include "cli/command.h"
+#include "cli/torch_helper.h"
 #include "core/events/formats/npy.h"
 #include "core/model/model_file.h"
 #include "core/util/error.h"
@@ -60,10 +61,7 @@ void run(const Args& a) {
 
 void add(CLI::App& app) {
   auto a = std::make_shared<Args>();
-  auto* cmd = app.add_subcommand(
-      "forward",
-      "Dense forward pass of a model on a spike tensor stored in npz (N, C, H, W, T); writes "
-      "every layer's spikes (layer1 ... layerL, same layout, float32) to an npz");
+  auto* cmd = app.add_subcommand("forward", spikems::cli::torch_command("forward").description);
   cmd->add_option("--model,-m", a->model, "model file")->required()->check(CLI::ExistingFile);
   cmd->add_option("--input,-i", a->input, "input .npz")->required()->check(CLI::ExistingFile);
   cmd->add_option("--output,-o", a->output, "output .npz")->required();

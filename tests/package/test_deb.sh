@@ -32,6 +32,13 @@ for f in "$exe" "$model" "$root/usr/share/doc/spikems/LICENSE" \
 done
 
 [ "$("$exe" --version)" = "spikems $version" ] || fail "--version: $("$exe" --version)"
+# With training built, the LibTorch commands' helper is packaged and `spikems train` finds it.
+pkgdir=${PACKAGE_BUILD_DIR:-build-package}
+if [ -f "$pkgdir/CMakeCache.txt" ] && ! grep -q '^SPIKEMS_WITH_TRAIN:BOOL=OFF' \
+  "$pkgdir/CMakeCache.txt"; then
+  [ -x "$root/usr/lib/spikems/spikems-torch" ] || fail "usr/lib/spikems/spikems-torch missing"
+  "$exe" train --help | grep -q -- "--resume" || fail "packaged spikems train --help"
+fi
 
 # 40 events on a 16 x 16 sensor: a bar moving right, one event per pixel and 0.5 ms.
 work=$root/work

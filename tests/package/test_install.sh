@@ -2,7 +2,7 @@
 # ctest install_tree (label install): `cmake --install BUILD --prefix TMP` puts the program, the
 # shipped model and the docs in place, and the installed spikems finds its model without
 # --model in the documented order (docs/cli.md): $SPIKEMS_MODEL, <exe>/../models/,
-# <exe>/../share/spikems/models/.
+# <exe>/../share/spikems/models/; the LibTorch commands run the helper from lib/spikems/.
 set -euo pipefail
 build=$1
 fail() { echo "FAIL: $*" >&2; exit 1; }
@@ -43,4 +43,10 @@ if out=$(SPIKEMS_MODEL=$work/none.safetensors seg --out y.txt); then
   fail "ran although SPIKEMS_MODEL names a missing file"
 fi
 grep -q "looked at: $work/none.safetensors)" <<<"$out" || fail "error: $out"
+# 4. With training built, `spikems train` runs the installed helper (lib/spikems/spikems-torch).
+if grep -q '^SPIKEMS_WITH_TRAIN:BOOL=ON' "$build/CMakeCache.txt"; then
+  [ -x "$prefix/lib/spikems/spikems-torch" ] || fail "lib/spikems/spikems-torch not installed"
+  out=$("$exe" train --help 2>&1) || fail "installed spikems train --help: $out"
+  grep -q -- "--resume" <<<"$out" || fail "train --help: $out"
+fi
 echo "ok: installed tree complete; default model found in the documented order"
