@@ -1,5 +1,6 @@
 #include "core/runtime/segmenter.h"
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <utility>
@@ -170,6 +171,12 @@ void Segmenter::finish() {
   run_block();
   while (net_.block_running()) run_block();  // the pipeline's last blocks (threads)
   if (masks_) masks_->flush(frames_);
+}
+
+int default_block_steps(double step_ms, int threads) {
+  const double span_ms = threads > 1 ? 20.0 : 40.0;
+  if (!(step_ms > 0)) return 16;
+  return int(std::clamp(std::lround(span_ms / step_ms), 1L, 16L));
 }
 
 }  // namespace spikems

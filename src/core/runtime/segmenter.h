@@ -33,6 +33,14 @@ struct SegmenterOptions {
   int block_steps = 1;
 };
 
+// The block a file is run in when the user does not choose one: about 40 ms of steps on one
+// thread, 20 ms with threads (the layers' pipeline holds a block per layer, so its latency and
+// its filling cost grow with the block), 1 to 16 steps. Measured on a held-out room of 1 M
+// ev/s (docs/performance.md, "Start-up and output"): at 10 ms steps blocks of 4 run as fast as
+// 16 on one thread, and with two threads blocks of 2 run 1.7x faster than 16; at 2 ms steps 10
+// is a little faster than 16 with two threads.
+int default_block_steps(double step_ms, int threads);
+
 class Segmenter {
  public:
   // Throws Error when the model does not fit the sensor (size fixed by the model, a network

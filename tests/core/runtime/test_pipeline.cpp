@@ -106,6 +106,19 @@ TEST(KalmanTracker, EstimatesConstantVelocityWithStableIds) {
 }
 
 // The pipeline end to end on an identity-like model: a 1x1 conv passing OFF events through.
+TEST(Segmenter, DefaultBlockIsAboutFortyMillisecondsOrTwentyWithThreads) {
+  EXPECT_EQ(default_block_steps(1.0, 1), 16);  // 40 steps, capped
+  EXPECT_EQ(default_block_steps(2.0, 1), 16);  // 20, capped: the older models' 16 stays
+  EXPECT_EQ(default_block_steps(5.0, 1), 8);
+  EXPECT_EQ(default_block_steps(10.0, 1), 4);
+  EXPECT_EQ(default_block_steps(50.0, 1), 1);  // never below one step
+  EXPECT_EQ(default_block_steps(1.0, 2), 16);
+  EXPECT_EQ(default_block_steps(2.0, 2), 10);
+  EXPECT_EQ(default_block_steps(5.0, 4), 4);
+  EXPECT_EQ(default_block_steps(10.0, 2), 2);
+  EXPECT_EQ(default_block_steps(0.0, 1), 16);  // no step known: the former default
+}
+
 TEST(Segmenter, LabelsFollowTheOutputSpikes) {
   ModelSpec m;
   LayerSpec l;
