@@ -166,7 +166,7 @@ Image mask_image(const PredictionFrame& f) {
 
 // setup_s: building the network's state (once per stream, inside wall_s); the streaming rate
 // leaves it out, as a live stream pays it before its first event.
-void print_stats(const Segmenter& seg, double wall_s, double setup_s) {
+void print_stats(const Segmenter& seg, double wall_s, double setup_s, int threads) {
   const auto st = seg.network().stats();
   const double steps = double(std::max<int64_t>(1, seg.steps()));
   std::fprintf(stderr, "\n%-6s %10s %12s %12s %10s %14s %12s %9s\n", "layer", "neurons",
@@ -205,6 +205,11 @@ void print_stats(const Segmenter& seg, double wall_s, double setup_s) {
                human_count(double(seg.events_in()) / std::max(wall_s, 1e-9)).c_str(),
                sim_s / std::max(wall_s, 1e-9), sim_s / std::max(wall_s - setup_s, 1e-9),
                sim_s / std::max(seg.network_seconds(), 1e-9));
+  if (threads > 1)  // the other threads run the network beside this one's reading and labelling
+    std::fprintf(stderr,
+                 "(with --threads %d, \"network\" is this thread's time in it; the other "
+                 "threads' runs beside reading and labelling: compare the whole wall time)\n",
+                 threads);
 }
 
 void run(const Args& a) {
@@ -357,7 +362,7 @@ void run(const Args& a) {
     std::fprintf(stderr,
                  "spikems segment: interrupted; outputs hold the %" PRIu64 " events read so far\n",
                  seg->events_in());
-  if (a.stats) print_stats(*seg, wall, setup_s);
+  if (a.stats) print_stats(*seg, wall, setup_s, a.threads);
   // The last window is scored even when the stream ends inside it.
   if (scorer) scorer->finish(last_t + 1, /*keep_partial=*/true);
   const WindowScores scores = scorer ? scorer->scores()[0] : WindowScores{};

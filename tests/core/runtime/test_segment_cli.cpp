@@ -140,7 +140,7 @@ TEST(SegmentCli, LabelsMasksBoxesAndStats) {
 }
 
 // --block-steps changes when outputs are written, not what: labels, mask PNGs and boxes are
-// byte for byte those of step-by-step runs (the default for files is 16 steps per block).
+// byte for byte those of step-by-step runs (the default for files: default_block_steps()).
 TEST(SegmentCli, BlockStepsGiveIdenticalOutputs) {
   std::string d = scratch_dir();
   std::string model = write_pass_off_model(d), ev = write_events(d);
