@@ -3,7 +3,6 @@
 // foreground/background, and optionally writes mask frames, tracked boxes and statistics.
 #include <unistd.h>
 
-#include <charconv>
 #include <chrono>
 #include <cinttypes>
 #include <cmath>
@@ -90,67 +89,6 @@ class StdinTextSource {
   bool live_ = true;
 };
 
-// Labelled events out: "t_us x y p label" text (.txt / .csv / "-" for stdout), or any
-// format with a writer (labels kept where it has them).
-class LabelSink {
- public:
-  LabelSink(const std::string& path, SensorSize sensor) : path_(path) {
-    std::string ext = std::filesystem::path(path).extension().string();
-    if (path == "-") {
-      f_ = stdout;
-    } else if (ext == ".txt" || ext == ".csv") {
-      file_ = std::make_unique<AtomicFile>(path);
-      f_ = file_->handle();
-    } else {
-      writer_ = open_writer(path, sensor);
-    }
-    if (f_) std::fprintf(f_, "# t_us x y p label (1 = moving object, 0 = background)\n");
-  }
-  void write(const EventStream& ev) {
-    if (ev.empty()) return;
-    if (writer_) {
-      writer_->write(ev);
-      return;
-    }
-    // std::to_chars into one buffer: fprintf per event took ~0.3 s per million events, a
-    // quarter of the runtime's own time on one core (perf, docs/performance.md).
-    if (buf_size_ < ev.size() * kMaxLine) {  // grown, never zero-filled
-      buf_size_ = ev.size() * kMaxLine;
-      buf_ = std::make_unique_for_overwrite<char[]>(buf_size_);
-    }
-    char* const b = buf_.get();
-    char* o = b;
-    for (size_t i = 0; i < ev.size(); ++i) {
-      o = std::to_chars(o, o + 20, ev.t[i]).ptr;
-      *o++ = ' ';
-      o = std::to_chars(o, o + 5, unsigned(ev.x[i])).ptr;
-      *o++ = ' ';
-      o = std::to_chars(o, o + 5, unsigned(ev.y[i])).ptr;
-      *o++ = ' ';
-      o = std::to_chars(o, o + 3, unsigned(ev.p[i])).ptr;
-      *o++ = ' ';
-      o = std::to_chars(o, o + 5, unsigned(ev.label[i])).ptr;
-      *o++ = '\n';
-    }
-    const size_t n = size_t(o - b);
-    if (std::fwrite(b, 1, n, f_) != n) fail(path_, "", "write failed (disk full?)");
-    if (f_ == stdout) std::fflush(stdout);
-  }
-  void close() {
-    if (writer_) writer_->close();
-    if (file_) file_->commit();
-  }
-
- private:
-  std::string path_;
-  std::FILE* f_ = nullptr;
-  std::unique_ptr<AtomicFile> file_;
-  std::unique_ptr<EventWriter> writer_;
-  static constexpr size_t kMaxLine = 20 + 5 + 5 + 3 + 5 + 5;  // int64 t, u16 x y label, u8 p, gaps
-  std::unique_ptr<char[]> buf_;
-  size_t buf_size_ = 0;
-};
-
 Image mask_image(const PredictionFrame& f) {
   Image img(f.width, f.height, 0, 0, 0);
   for (int y = 0; y < f.height; ++y)
@@ -166,7 +104,7 @@ Image mask_image(const PredictionFrame& f) {
 
 // setup_s: building the network's state (once per stream, inside wall_s); the streaming rate
 // leaves it out, as a live stream pays it before its first event.
-void print_stats(const Segmenter& seg, double wall_s, double setup_s, int threads) {
+void print_stats(const Segmenter& seg, double wall_s, double setup_s) {
   const auto st = seg.network().stats();
   const double steps = double(std::max<int64_t>(1, seg.steps()));
   std::fprintf(stderr, "\n%-6s %10s %12s %12s %10s %14s %12s %9s\n", "layer", "neurons",
@@ -205,7 +143,8 @@ void print_stats(const Segmenter& seg, double wall_s, double setup_s, int thread
                human_count(double(seg.events_in()) / std::max(wall_s, 1e-9)).c_str(),
                sim_s / std::max(wall_s, 1e-9), sim_s / std::max(wall_s - setup_s, 1e-9),
                sim_s / std::max(seg.network_seconds(), 1e-9));
-  if (threads > 1)  // the other threads run the network beside this one's reading and labelling
+  // The other threads run the network beside this one's reading and labelling.
+  if (const int threads = seg.network().threads(); threads > 1)
     std::fprintf(stderr,
                  "(with --threads %d, \"network\" is this thread's time in it; the other "
                  "threads' runs beside reading and labelling: compare the whole wall time)\n",
@@ -264,7 +203,9 @@ void run(const Args& a) {
   so.mask_window_us = window;
 
   std::optional<Segmenter> seg;
-  std::optional<LabelSink> sink;
+  // Labelled events out: the format of --out's extension (text for .txt/.csv and for "-",
+  // one "t x y p label" line per event), labels kept where the format has them.
+  std::unique_ptr<EventWriter> sink;
   std::unique_ptr<AtomicFile> boxes;
   KalmanTracker tracker;
   if (!a.masks_dir.empty()) std::filesystem::create_directories(a.masks_dir);
@@ -279,7 +220,7 @@ void run(const Args& a) {
     const auto t_setup = std::chrono::steady_clock::now();
     seg.emplace(model, s, so, a.input);
     setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_setup).count();
-    if (!a.out.empty()) sink.emplace(a.out, s);
+    if (!a.out.empty()) sink = open_writer(a.out, s, {}, a.out == "-" ? "text" : "");
   };
   // --score: the paper's per-window IoU and detection rate (core/eval/window_scorer.h): G =
   // pixels with foreground input events (label != 0) in the window, P = pixels of the window's
@@ -300,7 +241,9 @@ void run(const Args& a) {
   };
   size_t frames_written = 0;
   auto drain = [&]() {
-    if (sink) sink->write(seg->labelled());
+    // Not before the first labelled events: a text header names the label column only when
+    // its first batch has labels.
+    if (sink && !seg->labelled().empty()) sink->write(seg->labelled());
     seg->labelled().clear();
     seg->labelled().add_zero_labels();
     for (const auto& f : seg->frames()) {
@@ -362,7 +305,7 @@ void run(const Args& a) {
     std::fprintf(stderr,
                  "spikems segment: interrupted; outputs hold the %" PRIu64 " events read so far\n",
                  seg->events_in());
-  if (a.stats) print_stats(*seg, wall, setup_s, a.threads);
+  if (a.stats) print_stats(*seg, wall, setup_s);
   // The last window is scored even when the stream ends inside it.
   if (scorer) scorer->finish(last_t + 1, /*keep_partial=*/true);
   const WindowScores scores = scorer ? scorer->scores()[0] : WindowScores{};

@@ -111,6 +111,7 @@ class StreamingNetwork {
   // (same_step()) runs its layers one after another within a step (each needs its
   // predecessor's spikes of that step), so there threads help through blocks only.
   void set_threads(int n);
+  int threads() const { return pool_ ? pool_->threads() : 1; }
 
   int64_t steps_done() const { return t_; }  // steps whose output was returned
   // Minimum steps from an input to the output: one per layer, none for SameStep neurons.

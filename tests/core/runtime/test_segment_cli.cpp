@@ -8,6 +8,7 @@
 
 #include "common/test_paths.h"
 #include "common/tiny_models.h"
+#include "core/events/io.h"
 #include "core/model/model_file.h"
 #include "core/model/time_step.h"
 
@@ -97,6 +98,14 @@ TEST(SegmentCli, LabelsMasksBoxesAndStats) {
     EXPECT_EQ(r[4], r[3] == 0 ? 1 : 0) << "t=" << r[0] << " p=" << r[3];
   }
   EXPECT_EQ(rows[0][0], 100);  // input order and times kept
+  // The labels file is the text event format: spikems reads it back, labels and all.
+  const EventStream back = read_events(d + "/labels.txt");
+  ASSERT_EQ(back.size(), rows.size());
+  ASSERT_TRUE(back.has_labels());
+  for (size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_EQ(back.t[i], rows[i][0]);
+    ASSERT_EQ(long(back.label[i]), rows[i][4]) << i;
+  }
   // 40 ms of events in 10 ms windows, plus the label window's run-out (< 1 window).
   int pngs = 0;
   for (auto& e : std::filesystem::directory_iterator(d + "/masks"))

@@ -306,6 +306,10 @@ class TextWriter final : public EventWriter {
       buf_ += '\n';
       if (buf_.size() > (1 << 20) - 128) flush();
     }
+    if (out_) {  // stdout: every batch goes on at once (a pipe, a live stream's labels)
+      flush();
+      std::fflush(out_);
+    }
   }
   void close() override {
     if (!header_done_) header(EventStream{});
