@@ -55,9 +55,10 @@ int main(int argc, char** argv) {
   });
   // `spikems --help` lists the helper's commands in their places, by name and description only
   // (they are never parsed here).
-  size_t stub = SPIKEMS_TORCH_HELPER || !SPIKEMS_HAS_TORCH_HELPER ? std::size(kTorchCommands) : 0;
+  constexpr bool kStubs = !SPIKEMS_TORCH_HELPER && SPIKEMS_HAS_TORCH_HELPER;
+  size_t stub = 0;
   auto add_stubs_before = [&](int order) {
-    for (; stub < std::size(kTorchCommands) && kTorchCommands[stub].order < order; ++stub)
+    for (; kStubs && stub < std::size(kTorchCommands) && kTorchCommands[stub].order < order; ++stub)
       app.add_subcommand(kTorchCommands[stub].name, kTorchCommands[stub].description);
   };
   for (const auto& c : reg) {

@@ -52,10 +52,9 @@ class HugeBuffer {
           mmap(nullptr, padded + kHuge, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
       if (raw == MAP_FAILED) throw std::bad_alloc();
       const uintptr_t r = reinterpret_cast<uintptr_t>(raw);
-      const uintptr_t a = (r + kHuge - 1) / kHuge * kHuge;  // 2 MiB aligned inside
-      if (a > r) munmap(raw, a - r);
-      if (a + padded < r + padded + kHuge)
-        munmap(reinterpret_cast<void*>(a + padded), r + kHuge - a);
+      const uintptr_t a = (r + kHuge - 1) / kHuge * kHuge;         // 2 MiB aligned inside
+      if (a > r) munmap(raw, a - r);                               // the head
+      munmap(reinterpret_cast<void*>(a + padded), r + kHuge - a);  // the tail (a < r + kHuge)
       p_ = reinterpret_cast<T*>(a);
       mapped_ = padded;
 #if defined(MADV_HUGEPAGE)
