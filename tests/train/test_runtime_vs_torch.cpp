@@ -108,7 +108,7 @@ void check(Discretisation d, uint32_t seed, double near,
   }
   EXPECT_GT(layers.back().sum().item<float>(), 20.f);  // not a vacuous comparison
   // End to end.
-  StreamingNetwork net(m, 24, 32);
+  StreamingNetwork net(m, 24, 32, true);
   auto steps = to_steps(input);
   auto last = layers.back().contiguous();
   const int64_t C = last.size(2), H = last.size(3), W = last.size(4);
@@ -176,7 +176,7 @@ TEST(RuntimeVsTorch, SkipModelMatchesInEveryPath) {
     for (const auto& l : layers) want.push_back(sorted_steps(l));
     const auto steps = to_steps(input);  // the sensor's geometry, (y*21 + x)*2 + p
     const size_t T = steps.size(), L = m.layers.size();
-    StreamingNetwork net(m, 13, 21);
+    StreamingNetwork net(m, 13, 21, true);
     for (size_t t = 0; t < T; ++t) {
       net.step(steps[t]);
       for (size_t k = 0; k < L; ++k) {
@@ -187,7 +187,7 @@ TEST(RuntimeVsTorch, SkipModelMatchesInEveryPath) {
     }
     // Blocks and the pipeline.
     for (int threads : {1, 2, 3}) {
-      StreamingNetwork b(m, 13, 21);
+      StreamingNetwork b(m, 13, 21, true);
       b.set_threads(threads);
       std::vector<std::vector<uint32_t>> got;
       size_t t = 0;
@@ -260,14 +260,14 @@ TEST(RuntimeVsTorch, OutputGateMatches) {
   }
   const auto want = sorted_steps(gated.back());
   const auto steps = to_steps(input);
-  StreamingNetwork net(g, 13, 21);
+  StreamingNetwork net(g, 13, 21, true);
   for (size_t t = 0; t < steps.size(); ++t) {
     auto got = net.step(steps[t]);
     std::sort(got.begin(), got.end());
     ASSERT_EQ(got, want[t]) << "step " << t;
   }
   for (int threads : {1, 3}) {
-    StreamingNetwork b(g, 13, 21);
+    StreamingNetwork b(g, 13, 21, true);
     b.set_threads(threads);
     std::vector<std::vector<uint32_t>> got;
     for (size_t t = 0; t < steps.size(); t += 8) {
@@ -317,7 +317,7 @@ TEST(RuntimeVsTorch, ReadoutWithoutRefractoryMatches) {
     EXPECT_GT(both, 5) << "no output pixel stayed above threshold: the case tests nothing";
     const auto want = sorted_steps(layers.back());
     const auto steps = to_steps(input);
-    StreamingNetwork net(m, 13, 21);
+    StreamingNetwork net(m, 13, 21, true);
     int spikes = 0;
     for (size_t t = 0; t < steps.size(); ++t) {
       net.step(steps[t]);

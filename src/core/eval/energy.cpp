@@ -180,6 +180,9 @@ EnergyReport measure_energy(const EnergyOptions& opt) {
       so.threads = opt.threads;
       so.block_steps = 16;
       so.label_tolerance_steps = 0;
+      // The whole fitted size, as the ANN's MACs count it (the runtime skips the padding's
+      // neurons; counting them keeps the ratio between equal networks).
+      so.whole_network = true;
       Segmenter seg(model, ev.sensor, so, f);
       constexpr size_t kChunk = 1 << 16;
       for (size_t b = 0; b < n && !interrupted(); b += kChunk) {

@@ -15,8 +15,8 @@ int ring_size(size_t n) {
 }
 }  // namespace
 
-FirStreamingLayer::FirStreamingLayer(const LayerSpec& l, int hin, int win)
-    : StreamingLayer(l, hin, win), eps_(l.srm_kernel), nu_(l.ref_kernel) {
+FirStreamingLayer::FirStreamingLayer(const LayerSpec& l, int hin, int win, int need_h, int need_w)
+    : StreamingLayer(l, hin, win, need_h, need_w), eps_(l.srm_kernel), nu_(l.ref_kernel) {
   if (eps_.empty()) eps_.push_back(0.f);
   if (nu_.empty()) nu_.push_back(0.f);
   W_ = ring_size(std::max(eps_.size(), nu_.size()));

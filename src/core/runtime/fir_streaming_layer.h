@@ -14,7 +14,7 @@ namespace spikems {
 
 class FirStreamingLayer final : public StreamingLayer {
  public:
-  FirStreamingLayer(const LayerSpec& l, int hin, int win);
+  FirStreamingLayer(const LayerSpec& l, int hin, int win, int need_h = -1, int need_w = -1);
   void step(int64_t t, const uint32_t* spikes, size_t n, std::vector<uint32_t>& next) override;
   float potential(int64_t t, uint32_t neuron) const override;
   size_t busy_positions() const override;

@@ -26,8 +26,9 @@ namespace spikems {
 // once, at load time) and cref*r0 (cref*r1), so that u = a1 + r (two multiplications fewer
 // per neuron and step) and a spike adds cref*inc to r0.
 
-IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int win)
-    : StreamingLayer(l, hin, win),
+IirStreamingLayer::IirStreamingLayer(const LayerSpec& l, double ts, int hin, int win, int need_h,
+                                     int need_w)
+    : StreamingLayer(l, hin, win, need_h, need_w),
       a_(std::exp(-ts / double(l.neuron.tau_s))),
       ar_(std::exp(-ts / double(l.neuron.tau_r))),
       slayer_ref_(l.neuron.refractory == RefractoryShape::Slayer) {

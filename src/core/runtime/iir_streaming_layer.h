@@ -43,7 +43,8 @@ namespace spikems {
 class IirStreamingLayer final : public StreamingLayer {
  public:
   // An IIR layer, or a FIR layer that runs_fir() accepts.
-  IirStreamingLayer(const LayerSpec& l, double time_step_ms, int hin, int win);
+  IirStreamingLayer(const LayerSpec& l, double time_step_ms, int hin, int win, int need_h = -1,
+                    int need_w = -1);
   // Whether a FIR layer can run here (with expiry): kernels sampled from its neuron
   // parameters, the SpikeMS refractory form, and 2, 16, 32 or 64 channels (whole vectors).
   static bool runs_fir(const LayerSpec& l, double time_step_ms);

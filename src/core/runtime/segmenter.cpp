@@ -34,7 +34,7 @@ Segmenter::Segmenter(const ModelSpec& m, SensorSize sensor, SegmenterOptions opt
       sensor_(sensor),
       step_us_(model_step_us(m)),
       opt_(opt),
-      net_(checked(m, sensor, source_), sensor.height, sensor.width),
+      net_(checked(m, sensor, source_), sensor.height, sensor.width, opt.whole_network),
       labeller_(sensor, net_.out_height(), net_.out_width(), net_.out_channels(),
                 net_.latency_steps() + std::max(0, opt.label_tolerance_steps)) {
   net_.set_threads(opt.threads);

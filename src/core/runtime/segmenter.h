@@ -31,6 +31,9 @@ struct SegmenterOptions {
   // steps later (with threads, as many blocks more as layers: the layers then work on different
   // blocks at once). 1 for the lowest latency (live streams).
   int block_steps = 1;
+  // Run every neuron of the model's fitted size, padding included (StreamingNetwork's `whole`):
+  // the labels are the same; energy counts the network's SynOps as the LibTorch network does.
+  bool whole_network = false;
 };
 
 // The block a file is run in when the user does not choose one: about 40 ms of steps on one

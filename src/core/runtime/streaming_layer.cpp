@@ -8,7 +8,39 @@
 
 namespace spikems {
 
-StreamingLayer::StreamingLayer(const LayerSpec& l, int hin, int win)
+namespace {
+// Which outputs input row/column i reaches through tap kk, as (output, kk) pairs, output
+// ascending, outputs below n_out only:
+//   conv:  s*o - p + kk = i  ->  o = (i + p - kk) / s when divisible
+//   convT: o = s*i - p + kk
+std::vector<std::pair<int32_t, int32_t>> reach(const LayerSpec& l, int i, int n_out) {
+  const int k = l.kernel, s = l.stride, p = l.padding;
+  std::vector<std::pair<int32_t, int32_t>> r;
+  for (int kk = 0; kk < k; ++kk) {
+    int o;
+    if (l.kind == LayerKind::Conv) {
+      const int num = i + p - kk;
+      if (num < 0 || num % s != 0) continue;
+      o = num / s;
+    } else {
+      o = s * i - p + kk;
+    }
+    if (o >= 0 && o < n_out) r.push_back({o, kk});
+  }
+  std::sort(r.begin(), r.end());
+  return r;
+}
+}  // namespace
+
+int StreamingLayer::needed_inputs(const LayerSpec& l, int n_in, int n_out, int n_needed) {
+  const int need = std::clamp(n_needed, 0, n_out);
+  int n = 0;
+  for (int i = 0; i < n_in; ++i)
+    if (!reach(l, i, need).empty()) n = i + 1;
+  return n;
+}
+
+StreamingLayer::StreamingLayer(const LayerSpec& l, int hin, int win, int need_h, int need_w)
     : cin_(l.in_channels),
       hin_(hin),
       win_(win),
@@ -16,6 +48,8 @@ StreamingLayer::StreamingLayer(const LayerSpec& l, int hin, int win)
       hout_(l.output_size(hin)),
       wout_(l.output_size(win)),
       k_(l.kernel),
+      need_h_(need_h < 0 ? hout_ : std::min(need_h, hout_)),
+      need_w_(need_w < 0 ? wout_ : std::min(need_w, wout_)),
       theta_(l.neuron.theta),
       div_cin_(uint32_t(l.in_channels)),
       div_win_(uint32_t(win)) {
@@ -26,36 +60,16 @@ StreamingLayer::StreamingLayer(const LayerSpec& l, int hin, int win)
   if (!l.delay.empty())
     fail("runtime", "", "axonal delays are not supported by the streaming runtime");
   if (k_ < 1 || k_ > 32) fail("runtime", "", "kernels larger than 32 are not supported");
-  const int k = k_, s = l.stride, p = l.padding;
+  const int k = k_;
   // weight(ci, co, ky, kx) in the file's layout
   auto weight = [&](int ci, int co, int ky, int kx) {
     return l.kind == LayerKind::Conv ? l.weight[((size_t(co) * cin_ + ci) * k + ky) * k + kx]
                                      : l.weight[((size_t(ci) * cout_ + co) * k + ky) * k + kx];
   };
-  // Which outputs an input row/column reaches through tap kk, as (output, kk) pairs, output
-  // ascending:
-  //   conv:  s*o - p + kk = i  ->  o = (i + p - kk) / s when divisible
-  //   convT: o = s*i - p + kk
-  auto reach = [&](int i, int n_out) {
-    std::vector<std::pair<int32_t, int32_t>> r;
-    for (int kk = 0; kk < k; ++kk) {
-      int o;
-      if (l.kind == LayerKind::Conv) {
-        const int num = i + p - kk;
-        if (num < 0 || num % s != 0) continue;
-        o = num / s;
-      } else {
-        o = s * i - p + kk;
-      }
-      if (o >= 0 && o < n_out) r.push_back({o, kk});
-    }
-    std::sort(r.begin(), r.end());
-    return r;
-  };
   row_begin_.assign(size_t(hin_) + 1, 0);
   for (int i = 0; i < hin_; ++i) {
     row_begin_[size_t(i)] = int32_t(row_taps_.size());
-    for (auto rt : reach(i, hout_)) row_taps_.push_back(rt);
+    for (auto rt : reach(l, i, need_h_)) row_taps_.push_back(rt);
   }
   row_begin_[size_t(hin_)] = int32_t(row_taps_.size());
   for (int i = 0; i < hin_; ++i)
@@ -65,7 +79,7 @@ StreamingLayer::StreamingLayer(const LayerSpec& l, int hin, int win)
   std::vector<size_t> seq_of(static_cast<size_t>(win_));
   col_run_.assign(size_t(win_), {});
   for (int x = 0; x < win_; ++x) {
-    auto r = reach(x, wout_);
+    auto r = reach(l, x, need_w_);
     std::vector<int32_t> kxs;
     for (size_t j = 0; j < r.size(); ++j) {
       if (j > 0 && r[j].first != r[j - 1].first + 1)
@@ -121,12 +135,12 @@ void StreamingLayer::drive(int64_t t, const uint32_t* spikes, size_t n) {
 }
 
 std::unique_ptr<StreamingLayer> StreamingLayer::create(const LayerSpec& l, double ts, int hin,
-                                                       int win) {
+                                                       int win, int need_h, int need_w) {
   // A FIR layer with the sampled kernels runs as the IIR recursions with expiry (5-10x faster,
   // iir_streaming_layer.h); other kernels keep the ring of future potentials.
   if (l.neuron.discretisation == Discretisation::FIR && !IirStreamingLayer::runs_fir(l, ts))
-    return std::make_unique<FirStreamingLayer>(l, hin, win);
-  return std::make_unique<IirStreamingLayer>(l, ts, hin, win);
+    return std::make_unique<FirStreamingLayer>(l, hin, win, need_h, need_w);
+  return std::make_unique<IirStreamingLayer>(l, ts, hin, win, need_h, need_w);
 }
 
 }  // namespace spikems

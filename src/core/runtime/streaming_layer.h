@@ -28,7 +28,11 @@ namespace spikems {
 
 class StreamingLayer {
  public:
-  StreamingLayer(const LayerSpec& spec, int in_height, int in_width);
+  // need_height x need_width: the top-left output region anything downstream uses (-1: all
+  // of it). Input spikes add no drive beyond it, so the neurons there never run (the padding
+  // a model with skips works on: StreamingNetwork). The neurons inside are exact.
+  StreamingLayer(const LayerSpec& spec, int in_height, int in_width, int need_height = -1,
+                 int need_width = -1);
   virtual ~StreamingLayer() = default;
 
   // One step: takes the input spikes of step t (input neuron indices, channels-last, each at
@@ -76,7 +80,14 @@ class StreamingLayer {
   bool same_step() const { return same_step_; }
 
   static std::unique_ptr<StreamingLayer> create(const LayerSpec& spec, double time_step_ms,
-                                                int in_height, int in_width);
+                                                int in_height, int in_width, int need_height = -1,
+                                                int need_width = -1);
+  // How many leading input rows (or columns) of n_in reach one of the first n_needed outputs:
+  // the region of its input a layer needs for that region of its output.
+  static int needed_inputs(const LayerSpec& spec, int n_in, int n_out, int n_needed);
+  // The output region that runs (the constructor's need_*, clamped to the output).
+  int need_height() const { return need_h_; }
+  int need_width() const { return need_w_; }
 
  protected:
   // The synaptic input of one step, in two passes so that the layer can fetch the state of
@@ -388,6 +399,7 @@ class StreamingLayer {
   }
 
   int cin_, hin_, win_, cout_, hout_, wout_, k_;
+  int need_h_, need_w_;
   float theta_;
   FastDiv div_cin_, div_win_;
   // Taps per input row: (output row, ky) pairs.

@@ -9,7 +9,7 @@
 
 namespace spikems {
 
-StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width)
+StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width, bool whole)
     : h_(height), w_(width), nh_(height), nw_(width) {
   m.validate(m.name);
   if (m.type != ModelType::SNN)
@@ -28,19 +28,48 @@ StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width)
   }
   // validate() has checked that every layer has the same onset.
   same_step_ = m.layers.front().neuron.srm_onset == SrmOnset::SameStep;
+  // Every layer's input size, then (last layer first) the region of its output that can
+  // reach an output pixel inside the sensor: the padding's neurons never run (unless asked).
+  const size_t nl = m.layers.size();
+  std::vector<int> hin(nl), win(nl);
   int h = nh_, w = nw_;
-  for (size_t k = 0; k < m.layers.size(); ++k) {
+  for (size_t k = 0; k < nl; ++k) {
     const auto& l = m.layers[k];
+    hin[k] = h;
+    win[k] = w;
     if (l.output_size(h) <= 0 || l.output_size(w) <= 0)
       fail(m.name, "layer " + std::to_string(k),
            "a " + std::to_string(width) + "x" + std::to_string(height) +
                " input is too small for this network");
-    layers_.push_back(StreamingLayer::create(l, m.time_step_ms, h, w));
+    h = l.output_size(h);
+    w = l.output_size(w);
+  }
+  // Output pixel (y, x) is sensor pixel (y, x) when the strides cancel (the U-Net); another
+  // scale keeps every output.
+  double scale = 1;
+  for (const auto& l : m.layers)
+    scale = l.kind == LayerKind::Conv ? scale / l.stride : scale * l.stride;
+  std::vector<int> need_h(nl, 0), need_w(nl, 0);
+  need_h[nl - 1] = scale == 1 ? std::min(h, height) : h;
+  need_w[nl - 1] = scale == 1 ? std::min(w, width) : w;
+  for (size_t k = nl; k-- > 1;) {
+    const auto& l = m.layers[k];
+    const int nh = StreamingLayer::needed_inputs(l, hin[k], l.output_size(hin[k]), need_h[k]);
+    const int nw = StreamingLayer::needed_inputs(l, win[k], l.output_size(win[k]), need_w[k]);
+    for (const int src : {int(k) - 1, l.skip_from}) {
+      if (src < 0) continue;
+      need_h[size_t(src)] = std::max(need_h[size_t(src)], nh);
+      need_w[size_t(src)] = std::max(need_w[size_t(src)], nw);
+    }
+  }
+  for (size_t k = 0; k < nl; ++k) {
+    const auto& l = m.layers[k];
+    layers_.push_back(StreamingLayer::create(l, m.time_step_ms, hin[k], win[k],
+                                             whole ? -1 : need_h[k], whole ? -1 : need_w[k]));
     layers_.back()->set_scattered_input(k == 0);  // the sensor's events, noise included
-    h = layers_.back()->out_height();
-    w = layers_.back()->out_width();
-    if (size_t(h) * w * l.out_channels >= (size_t(1) << 32) ||
-        size_t(layers_.back()->in_height()) * layers_.back()->in_width() * l.in_channels >=
+    if (size_t(layers_.back()->out_height()) * layers_.back()->out_width() * l.out_channels >=
+            (size_t(1) << 32) ||
+        size_t(hin[k]) * win[k] * l.in_channels >=
             (size_t(1) << 32))  // the input, skip channels included
       fail(m.name, "layer " + std::to_string(k), "layer too large for 32-bit neuron indices");
   }

@@ -74,7 +74,10 @@ class StreamingNetwork {
   // run on that size or holds something the runtime does not support. A model with skips is
   // built on model.fitted_input_size(height, width); the input indices stay in the caller's
   // geometry (below) and are moved to the wider rows when the widths differ.
-  StreamingNetwork(const ModelSpec& model, int height, int width);
+  // Only the neurons that can reach an output pixel inside the sensor run: padding's are never
+  // driven, so the output there stays silent (every output inside is exact). `whole` runs
+  // every neuron of the fitted size, as the LibTorch network does (tools comparing all of it).
+  StreamingNetwork(const ModelSpec& model, int height, int width, bool whole = false);
 
   // Advances one step with the given input spikes, input neuron index (y*W + x)*2 + p with
   // W = in_width(), each at most once (ascending keeps the first layer's scatter in address
@@ -127,8 +130,8 @@ class StreamingNetwork {
   int net_width() const { return nw_; }
   // The output layer's geometry (of the net_* input): it may be smaller than the sensor
   // (padding 0) or larger (a padded model on a size that is not a multiple of 2^levels, or one
-  // with skips). Output pixel (y, x) is sensor pixel (y, x), top-left aligned; callers ignore
-  // the output pixels beyond the sensor.
+  // with skips). Output pixel (y, x) is sensor pixel (y, x), top-left aligned; the output
+  // pixels beyond the sensor do not run (unless built `whole`) and callers ignore them.
   int out_channels() const { return layers_.back()->out_channels(); }
   int out_height() const { return layers_.back()->out_height(); }
   int out_width() const { return layers_.back()->out_width(); }

@@ -1,8 +1,8 @@
 // A zero-initialised array of trivially copyable T for large, randomly accessed state (the
-// runtime's neuron state: tens of megabytes touched at scattered places every step). When it
-// is large enough, it is its own anonymous mapping, 2 MiB aligned and backed by transparent
-// huge pages where the kernel allows (madvise): with 4 KiB pages nearly every visited position
-// would also miss the TLB.
+// runtime's neuron state: tens of megabytes touched at scattered places every step). From
+// 64 KiB on it is its own anonymous mapping (zero pages: nothing to clear), from 1 MiB on
+// 2 MiB aligned and backed by transparent huge pages where the kernel allows (madvise): with
+// 4 KiB pages nearly every visited position would also miss the TLB.
 #pragma once
 
 #include <cstddef>
@@ -41,24 +41,33 @@ class HugeBuffer {
     release();
     n_ = n;
     if (n == 0) return;
-    constexpr size_t kHuge = size_t(2) << 20;
+    constexpr size_t kHuge = size_t(2) << 20, kMap = size_t(64) << 10;
     const size_t bytes = n * sizeof(T);
 #if defined(__linux__)
-    if (bytes >= kHuge) {
+    if (bytes >= kMap) {
       // Fresh anonymous pages read as zero: no memset, and pages the run never touches are
-      // never faulted in (zeroing tens of MB up front was ~6 % of a 2 s `segment`).
-      const size_t padded = (bytes + kHuge - 1) / kHuge * kHuge;
+      // never faulted in (zeroing tens of MB up front was ~6 % of a 2 s `segment`; buffers
+      // sized for the worst case, a spike from every neuron, are mostly never touched).
+      // From 1 MiB on, the mapping is 2 MiB aligned and asks for huge pages (one huge page
+      // fault beats 256+ small ones, and the drive buffers are written at random).
+      const bool huge = bytes >= kHuge / 2;
+      const size_t unit = huge ? kHuge : size_t(4096);
+      const size_t padded = (bytes + unit - 1) / unit * unit;
+      const size_t extra = huge ? kHuge : 0;
       void* raw =
-          mmap(nullptr, padded + kHuge, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+          mmap(nullptr, padded + extra, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
       if (raw == MAP_FAILED) throw std::bad_alloc();
       const uintptr_t r = reinterpret_cast<uintptr_t>(raw);
-      const uintptr_t a = (r + kHuge - 1) / kHuge * kHuge;         // 2 MiB aligned inside
-      if (a > r) munmap(raw, a - r);                               // the head
-      munmap(reinterpret_cast<void*>(a + padded), r + kHuge - a);  // the tail (a < r + kHuge)
+      uintptr_t a = r;
+      if (huge) {
+        a = (r + kHuge - 1) / kHuge * kHuge;                         // 2 MiB aligned inside
+        if (a > r) munmap(raw, a - r);                               // the head
+        munmap(reinterpret_cast<void*>(a + padded), r + kHuge - a);  // the tail (a < r + kHuge)
+      }
       p_ = reinterpret_cast<T*>(a);
       mapped_ = padded;
 #if defined(MADV_HUGEPAGE)
-      madvise(p_, padded, MADV_HUGEPAGE);  // a hint: failure is harmless
+      if (huge) madvise(p_, padded, MADV_HUGEPAGE);  // a hint: failure is harmless
 #endif
       return;
     }

@@ -152,24 +152,45 @@ void check_model(const ModelSpec& m, const DenseTensor& input, double max_du_all
   }
   if (total_out_spikes) *total_out_spikes = spikes_last;
   // End to end: the whole network, stepped; flips may propagate, so only a handful allowed.
+  // Then as the runtime runs it by default: only the neurons that can reach an output pixel
+  // inside the sensor (top-left) run, the same within each layer's region, silent beyond it.
   auto outs = dense_forward(m, input);
-  StreamingNetwork net(m, input.H, input.W);
-  std::vector<std::vector<uint8_t>> got(m.layers.size());
-  for (size_t k = 0; k < m.layers.size(); ++k) got[k].assign(outs[k].spikes.v.size(), 0);
-  for (int t = 0; t < input.T; ++t) {
-    net.step(spikes_at(input, t));
-    for (size_t k = 0; k < m.layers.size(); ++k) {
-      const auto& o = outs[k].spikes;
-      for (uint32_t n : net.layer_spikes(k)) {
-        int c = int(n % uint32_t(o.C)), pos = int(n / uint32_t(o.C));
-        got[k][o.index(t, c, pos / o.W, pos % o.W)] = 1;
+  for (const bool whole : {true, false}) {
+    SCOPED_TRACE(whole ? "whole network" : "sensor region");
+    StreamingNetwork net(m, input.H, input.W, whole);
+    std::vector<std::vector<uint8_t>> got(m.layers.size());
+    for (size_t k = 0; k < m.layers.size(); ++k) got[k].assign(outs[k].spikes.v.size(), 0);
+    size_t outside = 0;
+    for (int t = 0; t < input.T; ++t) {
+      net.step(spikes_at(input, t));
+      for (size_t k = 0; k < m.layers.size(); ++k) {
+        const auto& o = outs[k].spikes;
+        for (uint32_t n : net.layer_spikes(k)) {
+          int c = int(n % uint32_t(o.C)), pos = int(n / uint32_t(o.C));
+          got[k][o.index(t, c, pos / o.W, pos % o.W)] = 1;
+          outside +=
+              pos / o.W >= net.layer(k).need_height() || pos % o.W >= net.layer(k).need_width();
+        }
       }
     }
-  }
-  for (size_t k = 0; k < m.layers.size(); ++k) {
-    int mism = 0;
-    for (size_t i = 0; i < got[k].size(); ++i) mism += got[k][i] != (outs[k].spikes.v[i] != 0);
-    EXPECT_LE(mism, 30) << "end to end, layer " << k;
+    EXPECT_EQ(outside, 0u);
+    for (size_t k = 0; k < m.layers.size(); ++k) {
+      const auto& o = outs[k].spikes;
+      const int nh = net.layer(k).need_height(), nw = net.layer(k).need_width();
+      if (whole) {
+        EXPECT_EQ(nh, o.H);
+        EXPECT_EQ(nw, o.W);
+      }
+      int mism = 0;
+      for (int t = 0; t < o.T; ++t)
+        for (int c = 0; c < o.C; ++c)
+          for (int y = 0; y < nh; ++y)
+            for (int x = 0; x < nw; ++x) {
+              const size_t i = o.index(t, c, y, x);
+              mism += got[k][i] != (o.v[i] != 0);
+            }
+      EXPECT_LE(mism, 30) << "end to end, layer " << k;
+    }
   }
 }
 
@@ -553,7 +574,7 @@ TEST(StreamingNetwork, SkipModelMatchesDense) {
       EXPECT_LT(d.max_du, 1e-4) << "layer " << k;
     }
     // The whole network, every layer at every step.
-    StreamingNetwork net(m, kSkipH, kSkipW);
+    StreamingNetwork net(m, kSkipH, kSkipW, true);
     EXPECT_EQ(net.in_height(), kSkipH);
     EXPECT_EQ(net.in_width(), kSkipW);
     EXPECT_EQ(net.net_height(), 15);
@@ -578,6 +599,35 @@ TEST(StreamingNetwork, SkipModelMatchesDense) {
       EXPECT_GT(outs[k].spikes.sum(), 100.0) << "layer " << k << " hardly fires";
       EXPECT_EQ(st[k].in_spikes, fed[k]) << "layer " << k;
     }
+    // As the runtime runs it: the padding (rows 13-15, columns 21-23 of the output) does not
+    // run, nor what reaches only the padding in earlier layers; every layer's spikes inside its
+    // region are the dense forward's, exactly, and none fall outside. Less work for it.
+    StreamingNetwork pruned(m, kSkipH, kSkipW);
+    EXPECT_EQ(pruned.layer(m.layers.size() - 1).need_height(), kSkipH);
+    EXPECT_EQ(pruned.layer(m.layers.size() - 1).need_width(), kSkipW);
+    for (int t = 0; t < input.T; ++t) {
+      pruned.step(spikes_at(input, t));
+      for (size_t k = 0; k < m.layers.size(); ++k) {
+        const DenseTensor& o = outs[k].spikes;
+        const int nh = pruned.layer(k).need_height(), nw = pruned.layer(k).need_width();
+        std::vector<uint32_t> inside;
+        for (uint32_t n : spikes_at(o, t)) {
+          const int pos = int(n / uint32_t(o.C));
+          if (pos / o.W < nh && pos % o.W < nw) inside.push_back(n);
+        }
+        ASSERT_EQ(sorted_layer_spikes(pruned, k), inside) << "step " << t << " layer " << k;
+      }
+    }
+    const auto sp = pruned.stats();
+    uint64_t synops_whole = 0, synops_pruned = 0;
+    for (size_t k = 0; k < m.layers.size(); ++k) {
+      synops_whole += st[k].synops;
+      synops_pruned += sp[k].synops;
+    }
+    EXPECT_LT(pruned.layer(m.layers.size() - 2).need_width(),
+              pruned.layer(m.layers.size() - 2).out_width());
+    EXPECT_LT(synops_pruned, synops_whole);
+    EXPECT_LT(sp.back().visits, st.back().visits);
     // Without the skip weights the decoder spikes differently: the skips carry spikes here.
     ModelSpec cut = m;
     for (size_t k : {size_t(4), size_t(5)}) {
@@ -602,7 +652,7 @@ TEST(StreamingNetwork, PartialSkipsMatchDense) {
   ASSERT_EQ(m.layers[5].skip_from, -1);
   const DenseTensor input = make_input(40, kSkipH, kSkipW, false, 50);
   const auto outs = dense_forward(m, input);
-  StreamingNetwork net(m, kSkipH, kSkipW);
+  StreamingNetwork net(m, kSkipH, kSkipW, true);
   for (int t = 0; t < input.T; ++t) {
     net.step(spikes_at(input, t));
     for (size_t k = 0; k < m.layers.size(); ++k)
@@ -944,7 +994,7 @@ TEST(StreamingNetwork, OutputGateKeepsOutputsAtPixelsWithRecentEvents) {
     EXPECT_GT(removed, kept);  // the gate matters on this input
     EXPECT_GT(beyond, 0.0);
     EXPECT_EQ(gated.back().spikes.sum(), kept);
-    StreamingNetwork net(g, kSkipH, kSkipW);
+    StreamingNetwork net(g, kSkipH, kSkipW, true);  // the padding too (its spikes are removed)
     EXPECT_EQ(net.output_gate_steps(), K);
     const auto count_after = [&] {  // checked once the input has run
       EXPECT_EQ(double(net.gate_kept()), kept);
