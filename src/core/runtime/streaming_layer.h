@@ -88,6 +88,8 @@ class StreamingLayer {
   // The output region that runs (the constructor's need_*, clamped to the output).
   int need_height() const { return need_h_; }
   int need_width() const { return need_w_; }
+  // The neurons of that region: those that can fire (the firing rates' denominator).
+  size_t running_neurons() const { return size_t(need_h_) * need_w_ * cout_; }
 
  protected:
   // The synaptic input of one step, in two passes so that the layer can fetch the state of

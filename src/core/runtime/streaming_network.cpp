@@ -463,7 +463,7 @@ std::vector<LayerStats> StreamingNetwork::stats() const {
     s[k].synops = layers_[k]->synops();
     s[k].in_spikes = in_spikes_[k];
     s[k].out_spikes = layers_[k]->spikes();
-    s[k].neurons = layers_[k]->out_neurons();
+    s[k].neurons = layers_[k]->running_neurons();
     s[k].seconds = seconds_[k];
     s[k].visits = layers_[k]->visits();
   }

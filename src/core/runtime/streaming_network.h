@@ -31,7 +31,7 @@ struct LayerStats {
   uint64_t synops = 0;      // weight additions actually made (input spike x fan-out reached)
   uint64_t in_spikes = 0;   // spikes that entered the layer
   uint64_t out_spikes = 0;  // spikes the layer emitted
-  size_t neurons = 0;
+  size_t neurons = 0;   // neurons that run (the padding's do not: StreamingLayer::running_neurons)
   uint64_t visits = 0;  // position visits (state reads and writes of a pixel's C neurons)
   double seconds = 0;   // wall time spent in the layer's steps
 };

@@ -99,7 +99,7 @@ TEST(Energy, SkipModelShapesAreTheRuntimes) {
   EXPECT_EQ(ann_macs(s[4]), 4u * 6 * 12 * 4 * 9);
   EXPECT_EQ(s[5].out_height, 16);
   EXPECT_EQ(s[5].out_width, 24);
-  StreamingNetwork net(m, 13, 21);
+  StreamingNetwork net(m, 13, 21, /*whole=*/true);  // as `energy` runs it
   net.step({in(3, 4, 1, 21)});
   EnergyReport r;
   EXPECT_NO_THROW(fill_layers(r, net, m));  // neuron counts agree with the runtime's layers

@@ -628,6 +628,10 @@ TEST(StreamingNetwork, SkipModelMatchesDense) {
               pruned.layer(m.layers.size() - 2).out_width());
     EXPECT_LT(synops_pruned, synops_whole);
     EXPECT_LT(sp.back().visits, st.back().visits);
+    // Firing rates count the neurons that run: the sensor's 21x13 at the output.
+    const size_t co = size_t(m.layers.back().out_channels);
+    EXPECT_EQ(sp.back().neurons, size_t(kSkipH) * kSkipW * co);
+    EXPECT_EQ(st.back().neurons, size_t(16) * 24 * co);
     // Without the skip weights the decoder spikes differently: the skips carry spikes here.
     ModelSpec cut = m;
     for (size_t k : {size_t(4), size_t(5)}) {
