@@ -39,6 +39,7 @@ struct Args {
   bool mask_window_set = false;
   bool stats = false, quiet = false, score = false, iir = false;
   int threads = 1;
+  int downsample = 1;
   int block_steps = 0;  // 0: default_block_steps() for files, 1 for a live stream on stdin
   int64_t step_us = 0;
   int tolerance = 3;
@@ -191,7 +192,12 @@ void run(const Args& a) {
     if (!sensor.known()) sensor = reader->sensor();
   }
 
+  if (a.downsample > 1 && (!a.masks_dir.empty() || !a.boxes.empty() || a.score))
+    fail(a.input, "",
+         "--downsample works with the per-event labels (--out, --stats) only: mask frames, boxes "
+         "and --score would be at the network's resolution, not the sensor's (not supported yet)");
   SegmenterOptions so;
+  so.downsample = a.downsample;
   so.label_tolerance_steps = a.tolerance;
   so.threads = a.threads;
   so.block_steps = a.block_steps > 0 ? a.block_steps
@@ -354,6 +360,11 @@ void add(CLI::App& app) {
   cmd->add_option("--output-gate", a.output_gate,
                   "Output gate in ms (0 = none; default: the model's own): output spikes count "
                   "only at pixels with an input event that recently (docs/model-format.md)");
+  cmd->add_option("--downsample", a.downsample,
+                  "The network sees the events at 1/N resolution, pixel (x/N, y/N), for a model "
+                  "trained on `convert --downsample N` data (faster: docs/runtime.md); the labels "
+                  "go to the original events. 1, 2, 4 or 8")
+      ->check(CLI::IsMember({1, 2, 4, 8}));
   cmd->add_option("--threads", a.threads,
                   "Threads: the layers of each step run in parallel (at most one per layer)")
       ->check(CLI::Range(1, 256));

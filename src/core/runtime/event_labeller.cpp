@@ -7,9 +7,9 @@
 
 namespace spikems {
 
-EventLabeller::EventLabeller(SensorSize sensor, int oh, int ow, int oc, int window)
-    : sensor_(sensor), oh_(oh), ow_(ow), oc_(oc), window_(window) {
-  if (oh <= 0 || ow <= 0 || oc <= 0 || window < 0)
+EventLabeller::EventLabeller(SensorSize sensor, int oh, int ow, int oc, int window, int shift)
+    : sensor_(sensor), oh_(oh), ow_(ow), oc_(oc), window_(window), shift_(shift) {
+  if (oh <= 0 || ow <= 0 || oc <= 0 || window < 0 || shift < 0 || shift > 15)
     fail("event labeller", "", "invalid output geometry or window");
   last_spike_.assign(size_t(oh) * ow, -1);
 }
@@ -17,7 +17,7 @@ EventLabeller::EventLabeller(SensorSize sensor, int oh, int ow, int oc, int wind
 void EventLabeller::push(const Event& e, int64_t step) {
   if (step_counts_.empty() || step_counts_.back().first != step) step_counts_.push_back({step, 0});
   ++step_counts_.back().second;
-  queue_.push_back({e, out_pixel(e.x, e.y)});
+  queue_.push_back({e, out_pixel(e.x >> shift_, e.y >> shift_)});
 }
 
 void EventLabeller::on_step(int64_t step, const std::vector<uint32_t>& spikes, EventStream& out) {

@@ -19,8 +19,10 @@ namespace spikems {
 
 class EventLabeller {
  public:
+  // shift > 0: the network sees the events downsampled, pixel (x >> shift, y >> shift), and
+  // `sensor` is that grid (Segmenter's downsample); the events keep their own coordinates.
   EventLabeller(SensorSize sensor, int out_height, int out_width, int out_channels,
-                int window_steps);
+                int window_steps, int shift = 0);
   // Queues an event of step `step` (steps never decrease).
   void push(const Event& e, int64_t step);
   // Records the output spikes of step `step`, then appends to `out` (with labels 1 =
@@ -28,7 +30,7 @@ class EventLabeller {
   void on_step(int64_t step, const std::vector<uint32_t>& out_spikes, EventStream& out);
   size_t pending() const { return queue_.size() - head_; }
   int window_steps() const { return window_; }
-  // Output pixel index of a sensor pixel.
+  // Output pixel index of a pixel of the network's grid (the sensor's unless downsampled).
   uint32_t out_pixel(int x, int y) const {
     int ox = x < ow_ ? x : ow_ - 1, oy = y < oh_ ? y : oh_ - 1;
     return uint32_t(oy) * uint32_t(ow_) + uint32_t(ox);
@@ -41,7 +43,7 @@ class EventLabeller {
     uint32_t pixel;  // out_pixel() of the event
   };
   SensorSize sensor_;
-  int oh_, ow_, oc_, window_;
+  int oh_, ow_, oc_, window_, shift_;
   std::vector<int64_t> last_spike_;  // per output pixel
   // Queued events in arrival order from head_ (the vector is compacted when half is spent),
   // and how many of them each step brought, oldest first: no per-event step is kept or

@@ -26,19 +26,32 @@ const ModelSpec& checked(const ModelSpec& m, SensorSize s, const std::string& sr
              " sensor; use a model for this sensor (or crop/resize the events first)");
   return m;
 }
+int downsample_shift(int f, const std::string& src) {
+  if (f != 1 && f != 2 && f != 4 && f != 8)
+    fail(src, "", "the downsampling factor must be 1, 2, 4 or 8, not " + std::to_string(f));
+  return std::countr_zero(unsigned(f));
+}
+
+SensorSize downsampled(SensorSize s, int shift) {
+  const int f = 1 << shift;
+  return {(s.width + f - 1) / f, (s.height + f - 1) / f};
+}
 }  // namespace
 
 Segmenter::Segmenter(const ModelSpec& m, SensorSize sensor, SegmenterOptions opt,
                      std::string source)
     : source_(std::move(source)),
       sensor_(sensor),
+      ds_shift_(downsample_shift(opt.downsample, source_)),
+      net_sensor_(downsampled(sensor, ds_shift_)),
       step_us_(model_step_us(m)),
       opt_(opt),
-      net_(checked(m, sensor, source_), sensor.height, sensor.width, opt.whole_network),
-      labeller_(sensor, net_.out_height(), net_.out_width(), net_.out_channels(),
-                net_.latency_steps() + std::max(0, opt.label_tolerance_steps)) {
+      net_(checked(m, net_sensor_, source_), net_sensor_.height, net_sensor_.width,
+           opt.whole_network),
+      labeller_(net_sensor_, net_.out_height(), net_.out_width(), net_.out_channels(),
+                net_.latency_steps() + std::max(0, opt.label_tolerance_steps), ds_shift_) {
   net_.set_threads(opt.threads);
-  input_bits_.assign((size_t(sensor.width) * sensor.height * 2 + 63) / 64, 0);
+  input_bits_.assign((size_t(net_sensor_.width) * net_sensor_.height * 2 + 63) / 64, 0);
   input_words_.assign((input_bits_.size() + 63) / 64, 0);
   labelled_.sensor = sensor;
   labelled_.add_zero_labels();
@@ -98,7 +111,8 @@ void Segmenter::deliver(size_t ready) {
       for (uint32_t n = mask_counts_.front(); n > 0; --n) {
         const uint32_t px = mask_events_.front();
         mask_events_.pop_front();
-        masks_->add_event(int(px % uint32_t(sensor_.width)), int(px / uint32_t(sensor_.width)));
+        masks_->add_event(int(px % uint32_t(net_sensor_.width)),
+                          int(px / uint32_t(net_sensor_.width)));
       }
       mask_counts_.pop_front();
       masks_->add_spikes(origin_ + s * step_us_, out);
@@ -113,10 +127,12 @@ void Segmenter::push(const EventStream& c) {
   // The bitmap words of events a few ahead are requested early: events land anywhere on
   // the sensor, and the network's state has evicted the bitmap from the cache by now.
   constexpr size_t kAhead = 16;
-  const uint32_t width = uint32_t(sensor_.width), height = uint32_t(sensor_.height);
+  // The network's pixel grid (the sensor's, or downsampled: pixel (x >> s, y >> s)).
+  const uint32_t width = uint32_t(net_sensor_.width), height = uint32_t(net_sensor_.height);
+  const int sh = ds_shift_;
   auto word_of = [&](size_t i) {
-    const uint32_t x = std::min<uint32_t>(c.x[i], width - 1),
-                   y = std::min<uint32_t>(c.y[i], height - 1);
+    const uint32_t x = std::min<uint32_t>(uint32_t(c.x[i]) >> sh, width - 1),
+                   y = std::min<uint32_t>(uint32_t(c.y[i]) >> sh, height - 1);
     return (y * width + x) >> 5;  // 2 bits (polarities) per pixel, 64 per word
   };
   for (size_t i = 0; i < std::min(c.size(), kAhead); ++i)
@@ -135,8 +151,8 @@ void Segmenter::push(const EventStream& c) {
       started_ = true;
       origin_ = last_t_ = t;
       if (opt_.mask_window_us > 0)
-        masks_.emplace(sensor_, net_.out_height(), net_.out_width(), net_.out_channels(), origin_,
-                       opt_.mask_window_us);
+        masks_.emplace(net_sensor_, net_.out_height(), net_.out_width(), net_.out_channels(),
+                       origin_, opt_.mask_window_us);
     }
     if (t < last_t_)
       fail_at_event(source_, idx,
@@ -146,7 +162,8 @@ void Segmenter::push(const EventStream& c) {
     // The event's step without a division per event: steps end at origin + k * step_us.
     while (t >= origin_ + (cur_step_ + 1) * step_us_) end_step();
     const int64_t step = cur_step_;
-    const uint32_t n = (uint32_t(c.y[i]) * uint32_t(sensor_.width) + c.x[i]) * 2u + c.p[i];
+    const uint32_t nx = uint32_t(c.x[i]) >> sh, ny = uint32_t(c.y[i]) >> sh;
+    const uint32_t n = (ny * width + nx) * 2u + c.p[i];
     uint64_t& word = input_bits_[n >> 6];
     const uint64_t bit = uint64_t(1) << (n & 63);
     input_count_ += (word & bit) == 0;
@@ -154,7 +171,7 @@ void Segmenter::push(const EventStream& c) {
     input_words_[n >> 12] |= uint64_t(1) << ((n >> 6) & 63);
     labeller_.push(c[i], step);
     if (masks_) {
-      mask_events_.push_back(uint32_t(c.y[i]) * width + c.x[i]);
+      mask_events_.push_back(ny * width + nx);
       ++step_events_;
     }
   }

@@ -34,6 +34,10 @@ struct SegmenterOptions {
   // Run every neuron of the model's fitted size, padding included (StreamingNetwork's `whole`):
   // the labels are the same; energy counts the network's SynOps as the LibTorch network does.
   bool whole_network = false;
+  // The network sees the events at 1/downsample of the sensor's resolution, pixel (x / f, y / f)
+  // (1, 2, 4 or 8), as a model trained on `spikems convert --downsample f` data expects; the
+  // labels still go to the original events. Mask frames are then at the network's resolution.
+  int downsample = 1;
 };
 
 // The block a file is run in when the user does not choose one: about 40 ms of steps on one
@@ -75,6 +79,8 @@ class Segmenter {
   void deliver(size_t ready);  // the next `ready` steps' outputs to the labeller and masks
   std::string source_;
   SensorSize sensor_;
+  int ds_shift_;           // log2(opt.downsample)
+  SensorSize net_sensor_;  // the sensor as the network sees it (downsampled)
   int64_t step_us_;
   SegmenterOptions opt_;
   StreamingNetwork net_;

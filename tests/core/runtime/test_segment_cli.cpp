@@ -190,6 +190,39 @@ TEST(SegmentCli, BlockStepsGiveIdenticalOutputs) {
   EXPECT_FALSE(std::filesystem::exists(d + "/zero.txt"));
 }
 
+// --downsample 2: the pass-OFF model sees the square at half resolution, where its OFF and ON
+// edges (6 px apart) stay in different pixels, so every OFF event is still foreground and
+// every ON event background; the label lines keep the events' own coordinates. Mask frames,
+// boxes and --score are refused with it, and so is a factor other than 1, 2, 4, 8.
+TEST(SegmentCli, DownsampleLabelsTheOriginalEvents) {
+  std::string d = scratch_dir();
+  std::string model = write_pass_off_model(d), ev = write_events(d);
+  std::string out;
+  ASSERT_EQ(run_command(spikems_binary() + " segment --quiet --model " + model + " --input " + ev +
+                            " --downsample 2 --out " + d + "/ds.txt",
+                        &out),
+            0)
+      << out;
+  const auto rows = read_rows(d + "/ds.txt"), src = read_rows(ev);
+  ASSERT_EQ(rows.size(), src.size());
+  for (size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_EQ(rows[i].size(), 5u);
+    EXPECT_EQ(rows[i][1], src[i][1]);  // x and y as in the input
+    EXPECT_EQ(rows[i][2], src[i][2]);
+    EXPECT_EQ(rows[i][4], rows[i][3] == 0 ? 1 : 0) << "row " << i;  // OFF foreground
+  }
+  for (const std::string& extra :
+       std::vector<std::string>{" --score", " --boxes " + d + "/b.csv", " --downsample 3"}) {
+    EXPECT_NE(run_command(spikems_binary() + " segment --quiet --model " + model + " --input " +
+                              ev + " --downsample 2 --out " + d + "/bad.txt" + extra,
+                          &out),
+              0)
+        << extra;
+    EXPECT_NE(out.find("downsample"), std::string::npos) << out;
+    EXPECT_FALSE(std::filesystem::exists(d + "/bad.txt"));
+  }
+}
+
 // --iir runs the FIR model with the exact recursions of the same neurons: on this clean input
 // the labels are the same; a model whose kernels are not the sampled ones is refused.
 TEST(SegmentCli, IirOptionGivesTheSameLabelsHereAndRefusesOddKernels) {

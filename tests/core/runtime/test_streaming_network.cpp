@@ -743,6 +743,62 @@ TEST(Segmenter, SkipModelLabelsReadTheTopLeftOutputPixels) {
   }
 }
 
+// Downsampled input (SegmenterOptions::downsample = 2, `segment --downsample 2`): on a 43x27
+// sensor the network sees pixel (x/2, y/2) of a 22x14 grid, and each event gets the label that
+// the same network gives it on the stream with halved coordinates (what `convert --downsample
+// 2` writes), in the original order and with its original coordinates; blocks and threads
+// agree. A factor that is not 1, 2, 4 or 8 is refused.
+TEST(Segmenter, DownsampledInputLabelsTheOriginalEvents) {
+  const ModelSpec m = random_skip_model(Discretisation::IIR, 47, RefractoryShape::SpikeMS, 0.35f);
+  const SensorSize full{43, 27}, half{22, 14};
+  const DenseTensor in = make_input(40, half.height, half.width, false, 61, 0.03);
+  std::mt19937 rng(62);
+  EventStream ev, halved;
+  for (int t = 0; t < in.T; ++t)
+    for (uint32_t n : spikes_at(in, t)) {
+      const int x = int((n / 2) % uint32_t(half.width)), y = int((n / 2) / uint32_t(half.width));
+      for (int k = 0; k < 1 + int(rng() % 2); ++k) {  // one or two events in the 2x2 block
+        const int fx = std::min(full.width - 1, 2 * x + int(rng() % 2)),
+                  fy = std::min(full.height - 1, 2 * y + int(rng() % 2));
+        const int64_t ts = 1000 * t + int64_t(rng() % 1000);
+        ev.push_back(ts, uint16_t(fx), uint16_t(fy), uint8_t(n % 2));
+      }
+    }
+  ev.sort_by_time();
+  ev.sensor = full;
+  for (size_t i = 0; i < ev.size(); ++i)
+    halved.push_back(ev.t[i], uint16_t(ev.x[i] / 2), uint16_t(ev.y[i] / 2), ev.p[i]);
+  halved.sensor = half;
+  auto run = [&](const EventStream& s, SensorSize sensor, int f, int block, int threads) {
+    SegmenterOptions o;
+    o.downsample = f;
+    o.block_steps = block;
+    o.threads = threads;
+    Segmenter seg(m, sensor, o);
+    for (size_t b = 0; b < s.size(); b += 333)
+      seg.push(s.slice_index(b, std::min(s.size(), b + 333)));
+    seg.finish();
+    return seg.labelled();
+  };
+  const EventStream want = run(halved, half, 1, 1, 1);
+  const size_t fg = size_t(std::count(want.label.begin(), want.label.end(), 1));
+  EXPECT_GT(fg, 10u);
+  EXPECT_LT(fg, want.size() - 10);
+  for (auto [block, threads] : {std::pair{1, 1}, {16, 1}, {4, 2}}) {
+    SCOPED_TRACE(std::to_string(block) + " steps per block, " + std::to_string(threads) +
+                 " threads");
+    const EventStream got = run(ev, full, 2, block, threads);
+    ASSERT_EQ(got.size(), ev.size());
+    EXPECT_EQ(got.t, ev.t);
+    EXPECT_EQ(got.x, ev.x);  // the original coordinates
+    EXPECT_EQ(got.y, ev.y);
+    EXPECT_EQ(got.label, want.label);
+  }
+  SegmenterOptions bad;
+  bad.downsample = 3;
+  EXPECT_THROW(Segmenter(m, full, bad), Error);
+}
+
 // Threads within a step (per-step parallel layers) for a model with skips.
 TEST(StreamingNetwork, SkipModelThreadsGiveIdenticalSteps) {
   for (int threads : {2, 3, 6}) {
