@@ -15,7 +15,8 @@ int64_t model_step_us(const ModelSpec& m) {
   return std::max<int64_t>(1, std::llround(m.time_step_ms * 1000.0));
 }
 
-const ModelSpec& checked(const ModelSpec& m, SensorSize s, const std::string& src) {
+// s: the grid the network sees (the sensor, or the sensor downsampled by 2^shift).
+const ModelSpec& checked(const ModelSpec& m, SensorSize s, int shift, const std::string& src) {
   if (!s.known()) fail(src, "", "the sensor size is unknown; give it with --width and --height");
   if (m.input_width > 0 && m.input_height > 0 &&
       (m.input_width != s.width || m.input_height != s.height))
@@ -23,7 +24,9 @@ const ModelSpec& checked(const ModelSpec& m, SensorSize s, const std::string& sr
          "the model '" + m.name + "' was made for a " + std::to_string(m.input_width) + "x" +
              std::to_string(m.input_height) + " sensor but the events come from a " +
              std::to_string(s.width) + "x" + std::to_string(s.height) +
-             " sensor; use a model for this sensor (or crop/resize the events first)");
+             (shift > 0 ? " grid (the sensor downsampled " + std::to_string(1 << shift) + "x)"
+                        : std::string(" sensor")) +
+             "; use a model for this sensor (or crop/resize the events first)");
   return m;
 }
 int downsample_shift(int f, const std::string& src) {
@@ -46,7 +49,7 @@ Segmenter::Segmenter(const ModelSpec& m, SensorSize sensor, SegmenterOptions opt
       net_sensor_(downsampled(sensor, ds_shift_)),
       step_us_(model_step_us(m)),
       opt_(opt),
-      net_(checked(m, net_sensor_, source_), net_sensor_.height, net_sensor_.width,
+      net_(checked(m, net_sensor_, ds_shift_, source_), net_sensor_.height, net_sensor_.width,
            opt.whole_network),
       labeller_(net_sensor_, net_.out_height(), net_.out_width(), net_.out_channels(),
                 net_.latency_steps() + std::max(0, opt.label_tolerance_steps), ds_shift_) {

@@ -32,8 +32,8 @@ std::vector<std::pair<int32_t, int32_t>> reach(const LayerSpec& l, int i, int n_
 }
 }  // namespace
 
-int StreamingLayer::needed_inputs(const LayerSpec& l, int n_in, int n_out, int n_needed) {
-  const int need = std::clamp(n_needed, 0, n_out);
+int StreamingLayer::needed_inputs(const LayerSpec& l, int n_in, int n_needed) {
+  const int need = std::clamp(n_needed, 0, std::max(0, l.output_size(n_in)));
   int n = 0;
   for (int i = 0; i < n_in; ++i)
     if (!reach(l, i, need).empty()) n = i + 1;

@@ -84,7 +84,7 @@ class StreamingLayer {
                                                 int need_width = -1);
   // How many leading input rows (or columns) of n_in reach one of the first n_needed outputs:
   // the region of its input a layer needs for that region of its output.
-  static int needed_inputs(const LayerSpec& spec, int n_in, int n_out, int n_needed);
+  static int needed_inputs(const LayerSpec& spec, int n_in, int n_needed);
   // The output region that runs (the constructor's need_*, clamped to the output).
   int need_height() const { return need_h_; }
   int need_width() const { return need_w_; }

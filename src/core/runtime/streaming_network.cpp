@@ -54,8 +54,8 @@ StreamingNetwork::StreamingNetwork(const ModelSpec& m, int height, int width, bo
   need_w[nl - 1] = scale == 1 ? std::min(w, width) : w;
   for (size_t k = nl; k-- > 1;) {
     const auto& l = m.layers[k];
-    const int nh = StreamingLayer::needed_inputs(l, hin[k], l.output_size(hin[k]), need_h[k]);
-    const int nw = StreamingLayer::needed_inputs(l, win[k], l.output_size(win[k]), need_w[k]);
+    const int nh = StreamingLayer::needed_inputs(l, hin[k], need_h[k]);
+    const int nw = StreamingLayer::needed_inputs(l, win[k], need_w[k]);
     for (const int src : {int(k) - 1, l.skip_from}) {
       if (src < 0) continue;
       need_h[size_t(src)] = std::max(need_h[size_t(src)], nh);
