@@ -7,6 +7,7 @@
 #include "cli/command.h"
 #include "core/eval/calibration.h"
 #include "core/eval/window_list.h"
+#include "core/model/default_model.h"
 #include "core/model/output_gate.h"
 #include "core/model/output_threshold.h"
 #include "core/util/error.h"
@@ -24,12 +25,13 @@ struct Args {
   bool budget_given = false;
   int threads = 1;
   bool quiet = false;
+  cli::ScaleFlags scale;
 };
 
 void run(const Args& a) {
   install_interrupt_flag();
   CalibrationOptions o;
-  o.model = a.model;
+  o.model = resolve_model(a.model);
   o.data = a.data;
   cli::check_split(a.split);
   o.split = a.split;
@@ -48,6 +50,8 @@ void run(const Args& a) {
   if (a.max_seconds < 0) fail("--max-seconds", "", "must be positive");
   o.max_seconds = a.max_seconds;
   o.threads = a.threads;
+  o.downsample = a.scale.factor();
+  std::tie(o.train_width, o.train_height) = a.scale.grid();
   if (!(std::isfinite(a.time_step_ms) && a.time_step_ms >= 0))
     fail("--time-step-ms", "", "must be a positive number of ms, e.g. 5 (0 = the model's own)");
   o.time_step_ms = a.time_step_ms;
@@ -94,7 +98,9 @@ void add(CLI::App& app) {
       "--gates 0,6,10,20 --criterion iou --out m-gated.safetensors\n"
       "  spikems calibrate --model m.safetensors --data data/mod-val --split all --static "
       "data/poster-val --max-static-moving 5 --out m-cal.safetensors");
-  cmd->add_option("--model", a.model, "The model file to calibrate")->required();
+  cmd->add_option("--model", a.model,
+                  "The model file to calibrate (or a shipped model's name: default, fast)")
+      ->required();
   cmd->add_option("--data", a.data,
                   "Labelled validation data: simulator folders or recordings (repeat for more)")
       ->required();
@@ -131,6 +137,7 @@ void add(CLI::App& app) {
                   "faster network), calibrate it there and write it with that step (0 = its own)");
   cmd->add_option("--threads", a.threads, "Threads inside the network (results identical)")
       ->capture_default_str();
+  cli::add_scale_flags(cmd, a.scale);
   cmd->add_flag("--quiet", a.quiet, "No progress bar or notes on stderr");
   cmd->callback([] { run(a); });
 }

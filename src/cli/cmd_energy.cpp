@@ -30,7 +30,7 @@ void run(const Args& a) {
     fail("--window-ms", "", "a window length must be positive");
   if (a.data.empty()) fail("spikems energy", "", "no data given (--data PATH)");
   EnergyOptions o;
-  o.model_path = a.model.empty() ? default_model_or_fail() : a.model;
+  o.model_path = resolve_model(a.model);
   o.data = a.data;
   o.split = a.split;
   o.window_us = std::llround(a.window_ms * 1000.0);
@@ -63,7 +63,9 @@ void add(CLI::App& app) {
       "Examples:\n"
       "  spikems energy --model m.safetensors --data data/mod --out out/energy\n"
       "  spikems energy --model m.safetensors --data rec.h5 --window-ms 20 --max-seconds 2");
-  cmd->add_option("--model", a.model, "Model file (default: the shipped model)");
+  cmd->add_option(
+      "--model", a.model,
+      "Model file, or a shipped model's name (default, fast; default: the shipped default)");
   cmd->add_option("--data", a.data,
                   "A `spikems simulate` folder (manifest.json) or an event file; repeatable");
   cmd->add_option("--split", a.split, "Split of simulator folders: train, val, test or all")

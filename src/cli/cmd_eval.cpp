@@ -26,6 +26,7 @@ struct Args {
   int threads = 1, group_windows = 1;
   bool iir = false, quiet = false, gate_events = false, static_scene = false;
   double max_seconds = 0, min_moving_share = 0, keep_events = 1, time_step_ms = 0;
+  cli::ScaleFlags scale;
 };
 
 // "2,10" -> {2, 10}; "none" -> {} (no band rows). Errors name the option and the item.
@@ -58,6 +59,7 @@ void run(const Args& a) {
   EvalOptions o;
   // Without --model the shipped default is scored (and any --baseline beside it).
   o.models = a.models.empty() ? std::vector<std::string>{default_model_or_fail()} : a.models;
+  for (std::string& m : o.models) m = resolve_model(m);
   o.baselines = a.baselines;
   cli::check_split(a.split);
   if (a.max_seconds < 0) fail("--max-seconds", "", "must be positive");
@@ -69,6 +71,8 @@ void run(const Args& a) {
     o.output_thresholds = parse_threshold_scales(a.thresholds, "--output-thresholds");
   if (!a.gates.empty()) o.output_gates_us = parse_gate_list_ms(a.gates, "--output-gates");
   o.threads = a.threads;
+  o.downsample = a.scale.factor();
+  std::tie(o.train_width, o.train_height) = a.scale.grid();
   o.iir = a.iir;
   if (!(std::isfinite(a.time_step_ms) && a.time_step_ms >= 0))
     fail("--time-step-ms", "", "must be a positive number of ms, e.g. 5 (0 = each model's own)");
@@ -141,8 +145,8 @@ void add(CLI::App& app) {
       "--out o   (operating points: pick a factor on validation data, run it with segment "
       "--output-threshold)");
   cmd->add_option("--model", a.models,
-                  "Model file (.safetensors, spikems format); repeat to compare several "
-                  "(default: the shipped model)");
+                  "Model file (.safetensors, spikems format) or a shipped model's name (default, "
+                  "fast); repeat to compare several (default: the shipped default model)");
   cmd->add_option("--baseline", a.baselines,
                   "Also score a baseline on the same windows: all-events (every pixel with an "
                   "event predicted moving); repeatable")
@@ -172,6 +176,7 @@ void add(CLI::App& app) {
   cmd->add_option("--threads", a.threads,
                   "Threads inside the network (the layers of a step run in parallel)")
       ->check(CLI::Range(1, 256));
+  cli::add_scale_flags(cmd, a.scale);
   cmd->add_option("--boxes", a.boxes,
                   "Ground truth from bounding boxes (CSV: t_start_us,t_end_us,x0,y0,x1,y1[,id]; "
                   "corners inclusive) for the one recording given with --data, which then needs "

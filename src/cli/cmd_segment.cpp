@@ -14,9 +14,11 @@
 #include "cli/command.h"
 #include "core/eval/metrics.h"
 #include "core/eval/window_scorer.h"
+#include "core/events/event_ops.h"
 #include "core/events/io.h"
 #include "core/model/default_model.h"
 #include "core/model/model_file.h"
+#include "core/model/model_scale.h"
 #include "core/model/output_gate.h"
 #include "core/model/output_threshold.h"
 #include "core/model/time_step.h"
@@ -33,13 +35,16 @@ namespace {
 
 using namespace spikems;
 
+// Events per read: small chunks keep Ctrl-C responsive even when the network is slow.
+constexpr size_t kChunk = 4096;
+
 struct Args {
   std::string model, input, out, masks_dir, boxes;
   std::string mask_window = "10ms";
   bool mask_window_set = false;
   bool stats = false, quiet = false, score = false, iir = false;
   int threads = 1;
-  int downsample = 1;
+  std::string downsample = "auto";
   int block_steps = 0;  // 0: default_block_steps() for files, 1 for a live stream on stdin
   int64_t step_us = 0;
   int tolerance = 3;
@@ -90,11 +95,14 @@ class StdinTextSource {
   bool live_ = true;
 };
 
-Image mask_image(const PredictionFrame& f) {
-  Image img(f.width, f.height, 0, 0, 0);
-  for (int y = 0; y < f.height; ++y)
-    for (int x = 0; x < f.width; ++x) {
-      size_t i = size_t(y) * f.width + x;
+// At the sensor's size: a frame of a downsampled network (f.scale > 1) fills each of its pixels'
+// scale x scale sensor pixels.
+Image mask_image(const PredictionFrame& f, SensorSize sensor) {
+  const int w = f.scale > 1 ? sensor.width : f.width, h = f.scale > 1 ? sensor.height : f.height;
+  Image img(w, h, 0, 0, 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const size_t i = size_t(y / f.scale) * f.width + size_t(x / f.scale);
       if (f.foreground[i])
         img.set(x, y, 255, 255, 255);
       else if (f.events[i])
@@ -156,7 +164,7 @@ void run(const Args& a) {
   // Ctrl-C sets a flag (a second one exits at once); the loop below then stops reading and
   // commits complete outputs for the events read so far.
   install_interrupt_flag();
-  ModelSpec model = load_model(a.model.empty() ? default_model_or_fail() : a.model);
+  ModelSpec model = load_model(resolve_model(a.model));
   if (a.iir) model = with_iir_neurons(std::move(model), a.model);
   // Before the gate: a gate in ms then counts steps of the step the network runs at.
   if (a.step_us > 0)
@@ -192,12 +200,8 @@ void run(const Args& a) {
     if (!sensor.known()) sensor = reader->sensor();
   }
 
-  if (a.downsample > 1 && (!a.masks_dir.empty() || !a.boxes.empty() || a.score))
-    fail(a.input, "",
-         "--downsample works with the per-event labels (--out, --stats) only: mask frames, boxes "
-         "and --score would be at the network's resolution, not the sensor's (not supported yet)");
+  const int downsample = parse_downsample(a.downsample, "--downsample");  // 0: auto
   SegmenterOptions so;
-  so.downsample = a.downsample;
   so.label_tolerance_steps = a.tolerance;
   so.threads = a.threads;
   so.block_steps = a.block_steps > 0 ? a.block_steps
@@ -223,6 +227,13 @@ void run(const Args& a) {
   auto init = [&](SensorSize s) {
     if (!s.known())
       fail(a.input, "", "the sensor size is unknown; give it with --width and --height");
+    so.downsample = resolve_downsample(model, s.width, s.height, downsample, a.input);
+    if (downsample == 0 && so.downsample > 1 && !a.quiet)
+      std::fprintf(stderr,
+                   "spikems segment: the model was trained on a %dx%d grid; the network sees "
+                   "this %dx%d sensor downsampled %dx (--downsample 1 to run it at full "
+                   "resolution)\n",
+                   model.train_width, model.train_height, s.width, s.height, so.downsample);
     const auto t_setup = std::chrono::steady_clock::now();
     seg.emplace(model, s, so, a.input);
     setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_setup).count();
@@ -238,8 +249,17 @@ void run(const Args& a) {
     if (!c.has_labels())
       fail(a.input, "",
            "--score needs labelled events (label = object id), e.g. from `spikems simulate`");
-    if (!scorer) scorer.emplace(sensor, std::vector<int64_t>{window});
-    scorer->add_events(c);
+    // A downsampled network is scored on its own grid: G from the events at its pixels.
+    if (so.downsample > 1) {
+      BinningConfig geo;
+      geo.downsample = so.downsample;
+      const EventStream d = remap_events(c, geo);
+      if (!scorer) scorer.emplace(d.sensor, std::vector<int64_t>{window});
+      scorer->add_events(d);
+    } else {
+      if (!scorer) scorer.emplace(sensor, std::vector<int64_t>{window});
+      scorer->add_events(c);
+    }
     last_t = c.t.back();
   };
   auto score_frame = [&](const PredictionFrame& f) {
@@ -257,13 +277,16 @@ void run(const Args& a) {
       if (!a.masks_dir.empty()) {
         char name[64];
         std::snprintf(name, sizeof name, "mask_%06d.png", f.index);
-        write_png((std::filesystem::path(a.masks_dir) / name).string(), mask_image(f));
+        write_png((std::filesystem::path(a.masks_dir) / name).string(), mask_image(f, sensor));
       }
       if (boxes)
         for (const auto& b : tracker.update(f.t1_us, f.foreground, f.width, f.height)) {
+          // A downsampled frame's pixel x covers sensor pixels x*s .. x*s + s-1.
+          const double sc = f.scale;
           char line[256];
           std::snprintf(line, sizeof line, "%" PRId64 ",%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f\n", b.t_us,
-                        b.id, b.x0, b.y0, b.x1, b.y1, b.vx, b.vy);
+                        b.id, b.x0 * sc, b.y0 * sc, b.x1 * sc + (sc - 1), b.y1 * sc + (sc - 1),
+                        b.vx * sc, b.vy * sc);
           boxes->write(std::string(line));
         }
       ++frames_written;
@@ -283,8 +306,7 @@ void run(const Args& a) {
       break;
     }
     chunk.clear();
-    // Small chunks keep Ctrl-C responsive even when the network is slow.
-    bool more = from_stdin ? stdin_src->read(chunk, 4096) : reader->read(chunk, 4096) > 0;
+    bool more = from_stdin ? stdin_src->read(chunk, kChunk) : reader->read(chunk, kChunk) > 0;
     if (!more) {
       // Ctrl-C while the read waited (the handler restarts it) and the stream then ended: still
       // an interruption, said as such.
@@ -335,8 +357,10 @@ void add(CLI::App& app) {
       "steps t..t+L+tolerance (L = one step per layer). Text output: one line 't_us x y p "
       "label' per event. See docs/runtime.md.");
   cmd->add_option("--model", a.model,
-                  "Model file (.safetensors, spikems format); default: the shipped model "
-                  "(models/spikems-default.safetensors, or $SPIKEMS_MODEL)");
+                  "Model file (.safetensors, spikems format), or a shipped model's name: "
+                  "default (models/spikems-default.safetensors, or $SPIKEMS_MODEL; the default) "
+                  "or fast (models/spikems-fast.safetensors: half resolution, ~2x faster; "
+                  "models/README.md)");
   cmd->add_option("--input", a.input, "Event file (any format), or - for text 't x y p' on stdin")
       ->required();
   cmd->add_option("--out", a.out,
@@ -361,10 +385,12 @@ void add(CLI::App& app) {
                   "Output gate in ms (0 = none; default: the model's own): output spikes count "
                   "only at pixels with an input event that recently (docs/model-format.md)");
   cmd->add_option("--downsample", a.downsample,
-                  "The network sees the events at 1/N resolution, pixel (x/N, y/N), for a model "
-                  "trained on `convert --downsample N` data (faster: docs/runtime.md); the labels "
-                  "go to the original events. 1, 2, 4 or 8")
-      ->check(CLI::IsMember({1, 2, 4, 8}));
+                  "auto, 1, 2, 4 or 8: the network sees the events at 1/N resolution, pixel "
+                  "(x/N, y/N); the labels go to the original events, masks and boxes are drawn "
+                  "at the sensor's size, --score is at the network's. auto (default): the N "
+                  "that brings the sensor nearest the grid the model was trained on (`spikems "
+                  "info` shows it; 1 for models that record none). docs/runtime.md, \"Pixel "
+                  "scale\"");
   cmd->add_option("--threads", a.threads,
                   "Threads: the layers of each step run in parallel (at most one per layer)")
       ->check(CLI::Range(1, 256));

@@ -6,6 +6,8 @@
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 namespace spikems::cli {
@@ -37,6 +39,16 @@ void add_read_flags(CLI::App* cmd, ReadFlags& f);
 
 // Throws Error naming --split unless `split` is train, val, test or all.
 void check_split(const std::string& split);
+
+// The --downsample and --train-grid options of eval and calibrate (model_scale.h): the factor
+// (0 = auto) and a training grid for models that record none (0 x 0 = as recorded).
+struct ScaleFlags {
+  std::string downsample = "auto";
+  std::string train_grid;
+  int factor() const;                // throws Error naming --downsample
+  std::pair<int, int> grid() const;  // "WxH"; throws Error naming --train-grid
+};
+void add_scale_flags(CLI::App* cmd, ScaleFlags& f);
 
 // The command line as typed (shell-quoted, from /proc/self/cmdline), for provenance records.
 std::string invoked_command();

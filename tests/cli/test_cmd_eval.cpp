@@ -697,6 +697,60 @@ TEST_F(EvalCli, BadInputStopsWithAClearMessage) {
   EXPECT_FALSE(fs::exists(o + "/results.json"));  // nothing written on an error
 }
 
+// --downsample 2 scores the network on its half-resolution grid: the same rows as scoring the
+// sequences converted with `spikems convert --downsample 2`; auto does so for a model whose
+// training grid (--train-grid, or the one in the file) is half the sensor; 1 differs.
+TEST_F(EvalCli, DownsampleScoresOnTheNetworksGrid) {
+  std::string out;
+  const std::string conv = dir_ + "/tiny_ds2";
+  fs::create_directories(conv);
+  std::vector<std::string> files = sequence_files({data(), "all"});
+  ASSERT_EQ(files.size(), 3u);
+  std::string full_args, conv_args;
+  for (size_t i = 0; i < files.size(); ++i) {
+    const std::string c = conv + "/s" + std::to_string(i) + ".h5";
+    ASSERT_EQ(run_command(
+                  spikems_binary() + " convert " + files[i] + " " + c + " --downsample 2 -q", &out),
+              0)
+        << out;
+    full_args += " --data " + files[i];
+    conv_args += " --data " + c;
+  }
+  auto rows = [&](const std::string& args, const std::string& o, int factor) {
+    EXPECT_EQ(run_command(eval(args + " --windows 20,100 --out " + o), &out), 0) << out;
+    const auto j = nlohmann::json::parse(slurp(o + "/results.json"));
+    EXPECT_EQ(j["models"][0]["downsample"], factor) << args;
+    EXPECT_EQ(slurp(o + "/results.md").find("at 1/2 resolution") != std::string::npos, factor == 2)
+        << args;
+    std::vector<double> v;
+    for (const auto& d : j["models"][0]["datasets"])
+      for (const auto& w : d["windows"]) {
+        v.push_back(w["iou_mean"].get<double>());
+        v.push_back(w["detection_rate"].get<double>());
+        v.push_back(w["windows"].get<double>());
+      }
+    return v;
+  };
+  const auto converted = rows(conv_args, dir_ + "/ds_conv", 1);
+  const auto ds2 = rows(full_args + " --downsample 2", dir_ + "/ds_2", 2);
+  const auto grid = rows(full_args + " --train-grid 32x24", dir_ + "/ds_auto", 2);
+  const auto ds1 = rows(full_args + " --train-grid 32x24 --downsample 1", dir_ + "/ds_1", 1);
+  // A 64x48 and a 32x24 sequence with auto: 2 on one, 1 on the other.
+  const auto mixed = rows(" --data " + files[0] + " --data " + conv + "/s1.h5 --train-grid 32x24",
+                          dir_ + "/ds_mixed", 0);
+  EXPECT_FALSE(mixed.empty());
+  ASSERT_EQ(converted.size(), 3u * 2 * 3);
+  EXPECT_EQ(ds2, converted);
+  EXPECT_EQ(grid, converted);
+  EXPECT_NE(ds1, converted);
+  for (const std::string bad : {" --downsample 3", " --downsample auto2", " --train-grid 32",
+                                " --train-grid 0x24", " --train-grid 32x24x2"}) {
+    EXPECT_EQ(run_command(eval(full_args + bad + " --out " + dir_ + "/ds_bad"), &out), 1) << bad;
+    EXPECT_NE(out.find(bad.substr(1, bad.find(' ', 1) - 1)), std::string::npos) << out;
+  }
+  EXPECT_FALSE(fs::exists(dir_ + "/ds_bad/results.json"));
+}
+
 TEST_F(EvalCli, HelpShowsOptionsAndExamples) {
   std::string out;
   ASSERT_EQ(run_command(spikems_binary() + " eval --help", &out), 0) << out;

@@ -37,6 +37,9 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
   e.output_gates_us = opt.gates_us;
   std::sort(e.output_gates_us.begin(), e.output_gates_us.end());
   e.threads = opt.threads;
+  e.downsample = opt.downsample;
+  e.train_width = opt.train_width;
+  e.train_height = opt.train_height;
   e.time_step_ms = opt.time_step_ms;
   e.max_seconds = opt.max_seconds;
   e.progress = opt.progress;
@@ -126,7 +129,11 @@ ModelSpec calibrated_model(const CalibrationOptions& opt, const CalibrationResul
   if (opt.time_step_ms > 0)
     m = with_time_step(std::move(m), opt.time_step_ms, TimeConstants::Steps, opt.model);
   m = with_output_threshold(std::move(m), best.factor, opt.model);
-  m.output_gate_steps = best.gate_steps;  // the model's own when no gate was swept
+  m.output_gate_steps = best.gate_steps;            // the model's own when no gate was swept
+  if (opt.train_width > 0 && m.train_width == 0) {  // as it was scored (EvalOptions)
+    m.train_width = opt.train_width;
+    m.train_height = opt.train_height;
+  }
   double before = 1;
   nlohmann::json previous;  // an earlier calibration's record, kept inside the new one
   if (m.training.is_object() && m.training.contains("calibration")) {

@@ -33,6 +33,10 @@ struct CalibrationOptions {
   // scored there and written with it. 0: its own step.
   double time_step_ms = 0;
   int threads = 1;
+  int downsample = 0;  // EvalOptions::downsample (0 = auto)
+  // EvalOptions::train_width/height: a training grid for a model that records none; the
+  // calibrated model is written with it.
+  int train_width = 0, train_height = 0;
   bool progress = false;
   std::string command_line;
 };

@@ -1,5 +1,6 @@
 #include "core/eval/evaluation.h"
 
+#include <cmath>
 #include <filesystem>
 
 #include "core/dataset/sequence.h"
@@ -23,6 +24,21 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// A captured mask of a downsampled network (its grid, ceil(W/f) x ceil(H/f)) at the sensor's
+// size, each of its pixels filling f x f sensor pixels; a sensor-sized one as it is.
+std::vector<uint8_t> at_sensor(const std::vector<uint8_t>& m, int w, int h, SensorSize s) {
+  if (w == s.width && h == s.height) return m;
+  const int f = int(std::lround(double(s.width) / w));
+  if (f < 1 || (s.width + f - 1) / f != w || (s.height + f - 1) / f != h ||
+      m.size() != size_t(w) * h)
+    fail("report", "", "example window with inconsistent sizes");
+  std::vector<uint8_t> out(size_t(s.width) * s.height);
+  for (int y = 0; y < s.height; ++y)
+    for (int x = 0; x < s.width; ++x)
+      out[size_t(y) * s.width + x] = m[size_t(y / f) * w + size_t(x / f)];
+  return out;
+}
+
 // The windows every run captured for one sequence, as one ExampleWindow each (input events
 // rendered here, while the sequence is loaded).
 SequenceExamples collect_examples(const LabelledSequence& seq,
@@ -36,15 +52,18 @@ SequenceExamples collect_examples(const LabelledSequence& seq,
     ExampleWindow w;
     w.t0_us = c.t0_us - origin;
     w.t1_us = c.t1_us - origin;
-    w.width = c.width;
-    w.height = c.height;
-    w.truth = c.truth;
-    w.events = render_events(seq.events, c.t0_us, c.t1_us, seq.events.sensor);
+    // At the sensor's size: the runs may see it at different resolutions (--downsample).
+    const SensorSize sensor = seq.events.sensor;
+    w.width = sensor.width;
+    w.height = sensor.height;
+    w.truth = at_sensor(c.truth, c.width, c.height, sensor);
+    w.events = render_events(seq.events, c.t0_us, c.t1_us, sensor);
     for (const SequenceScore* r : runs) {
       // Every run scores the same windows of the same data, so it captured the same ones.
       if (k >= r->captured.size() || r->captured[k].index != c.index)
         fail(seq.name, "", "internal: runs captured different windows for the report");
-      w.predicted.push_back(r->captured[k].predicted);
+      const CapturedWindow& rc = r->captured[k];
+      w.predicted.push_back(at_sensor(rc.predicted, rc.width, rc.height, sensor));
       w.counts.push_back(r->captured[k].counts);
     }
     out.windows.push_back(std::move(w));
@@ -91,6 +110,11 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
       opt.output_gates_us.empty() ? std::vector<int64_t>{-1} : opt.output_gates_us;
   for (const auto& p : paths) {
     ModelSpec m = load_model(p);
+    if (opt.train_width > 0 && m.train_width == 0) {
+      m.train_width = opt.train_width;
+      m.train_height = opt.train_height;
+      m.validate(p);
+    }
     if (opt.iir && m.type == ModelType::SNN) m = with_iir_neurons(std::move(m), p);
     const double file_step_ms = m.time_step_ms;
     if (opt.time_step_ms > 0)
@@ -171,6 +195,7 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
   ProgressBar bar("eval", total * runs, "runs", opt.progress);
   SequenceScoreOptions so;
   so.threads = opt.threads;
+  so.downsample = opt.downsample;
   so.kalman_us = opt.kalman_us;
   so.gate_events = opt.gate_events;
   so.boxes = boxes;
@@ -192,6 +217,7 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
     *examples = EvalExamples{};
     examples->window_us = example_window_length(opt.windows_us);
   }
+  std::vector<bool> ran_any(runs, false);
   for (const auto& s : sources) {
     std::vector<std::vector<SequenceScore>> scores(runs);
     std::vector<SequenceExamples> shown;
@@ -227,6 +253,13 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
                                ? score_ann_sequence(models[i], seq, opt.windows_us, so)
                                : score_sequence(models[i], seq, opt.windows_us, so);
         complete = sc.complete;
+        if (complete && i < models.size()) {  // the factor it ran at, the same everywhere?
+          if (!ran_any[i])
+            res[i].downsample = sc.downsample;
+          else if (res[i].downsample != sc.downsample)
+            res[i].downsample = 0;
+          ran_any[i] = true;
+        }
         if (complete) scores[i].push_back(std::move(sc));
         bar.update(++done);
       }

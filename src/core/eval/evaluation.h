@@ -30,7 +30,13 @@ struct EvalOptions {
   // Output gates (output_gate.h), µs, 0 = off: every model is also scored once per gate (and
   // factor), a row each; empty = each model's own gate.
   std::vector<int64_t> output_gates_us;
-  int threads = 1;   // threads inside the network
+  int threads = 1;  // threads inside the network
+  // Each model sees each sequence downsampled by this factor, scored on its grid
+  // (SequenceScoreOptions::downsample); 0 = auto: the factor nearest the model's training grid.
+  int downsample = 0;
+  // > 0: the training grid of models that record none (ModelSpec::train_width/height; a model
+  // trained before spikems recorded it), for auto downsampling. 0: as the files say.
+  int train_width = 0, train_height = 0;
   bool iir = false;  // run FIR layers as their exact IIR recursions
   // > 0: every model runs at this step (ms), its time constants scaled so each step behaves
   // as trained (core/model/time_step.h, "steps"): fewer steps, a faster network. 0: its own.

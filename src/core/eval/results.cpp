@@ -369,6 +369,7 @@ nlohmann::ordered_json results_json(const EvalResults& r) {
     jm["time_step_ms"] = m.time_step_ms;
     jm["iir"] = m.iir;
     jm["time_step_scaled"] = m.time_step_scaled;
+    jm["downsample"] = m.downsample;
     jm["output_threshold_scale"] = m.output_threshold;
     jm["output_gate_ms"] = m.output_gate_steps * m.time_step_ms;
     nlohmann::ordered_json ds = nlohmann::ordered_json::array();
@@ -423,7 +424,10 @@ std::string model_file_label(const EvalResults& r, const std::string& path) {
 std::string model_label(const EvalResults& r, const ModelResult& m) {
   const std::string name =
       model_file_label(r, m.path) +
-      (m.time_step_scaled ? " at " + fmt("%g", m.time_step_ms) + " ms steps" : "");
+      (m.time_step_scaled ? " at " + fmt("%g", m.time_step_ms) + " ms steps" : "") +
+      (m.downsample > 1    ? " at 1/" + std::to_string(m.downsample) + " resolution"
+       : m.downsample == 0 ? " at mixed resolutions"
+                           : "");
   const std::string gate = m.output_gate_steps > 0
                                ? " gate " + fmt("%g", m.output_gate_steps * m.time_step_ms) + " ms"
                                : "";
@@ -517,14 +521,19 @@ std::string results_markdown(const EvalResults& r) {
   out += "- command: `" + r.command_line + "`\n";
   out += "- date: " + r.date + "\n";
   for (const auto& m : r.models)
-    out += "- model: `" + m.path + "` (" + m.name + ", time step " + fmt("%g", m.time_step_ms) +
-           " ms" + (m.time_step_scaled ? " (time constants scaled with it)" : "") +
-           (m.iir ? ", FIR layers run as IIR" : "") +
-           (m.output_threshold != 1 ? ", output θ × " + fmt("%g", m.output_threshold) : "") +
-           (m.output_gate_steps > 0
-                ? ", output gate " + fmt("%g", m.output_gate_steps * m.time_step_ms) + " ms"
-                : "") +
-           ")\n";
+    out +=
+        "- model: `" + m.path + "` (" + m.name + ", time step " + fmt("%g", m.time_step_ms) +
+        " ms" + (m.time_step_scaled ? " (time constants scaled with it)" : "") +
+        (m.iir ? ", FIR layers run as IIR" : "") +
+        (m.downsample > 1 ? ", the network sees the sensor at 1/" + std::to_string(m.downsample) +
+                                " resolution and is scored on that grid"
+         : m.downsample == 0 ? ", downsampled differently per sensor size (auto)"
+                             : "") +
+        (m.output_threshold != 1 ? ", output θ × " + fmt("%g", m.output_threshold) : "") +
+        (m.output_gate_steps > 0
+             ? ", output gate " + fmt("%g", m.output_gate_steps * m.time_step_ms) + " ms"
+             : "") +
+        ")\n";
   if (r.max_seconds > 0) out += "- first " + fmt("%g", r.max_seconds) + " s of each sequence\n";
   if (r.gate_events)
     out +=

@@ -90,6 +90,9 @@ struct ModelResult {
   double output_threshold = 1;
   // The output gate it ran with (ModelSpec::output_gate_steps, its own or EvalOptions'), steps.
   int output_gate_steps = 0;
+  // The resolution it ran at (EvalOptions::downsample): 1, 2, 4 or 8 on every sequence, 0 =
+  // several (auto on sensors of different sizes).
+  int downsample = 1;
   std::vector<DatasetResult> datasets;
 };
 

@@ -5,6 +5,8 @@
 
 #include "core/eval/kalman_filter.h"
 #include "core/eval/window_scorer.h"
+#include "core/events/event_ops.h"
+#include "core/model/model_scale.h"
 #include "core/runtime/segmenter.h"
 #include "core/util/error.h"
 
@@ -102,7 +104,24 @@ SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq
   SequenceScore r = empty_score(seq, windows_us, opt.kalman_us);
   if (ev.empty()) return r;
 
-  WindowScorer scorer(ev.sensor, windows_us, kalman_lengths(ev.sensor, opt));
+  // A downsampled network is scored on its own grid: G from the events at its pixels (as
+  // `spikems eval` of the data converted with `convert --downsample N`); the event precision
+  // and recall stay per original event.
+  const int ds =
+      resolve_downsample(model, ev.sensor.width, ev.sensor.height, opt.downsample, seq.name);
+  BinningConfig geo;
+  geo.downsample = ds;
+  r.downsample = ds;
+  const SensorSize grid =
+      ds > 1 ? SensorSize{(ev.sensor.width + ds - 1) / ds, (ev.sensor.height + ds - 1) / ds}
+             : ev.sensor;
+  if (ds > 1 && opt.boxes)
+    fail(seq.name, "",
+         "box ground truth is scored on the sensor's grid, but the model runs it downsampled " +
+             std::to_string(ds) +
+             "x (its training grid is smaller): give --downsample 1, or convert the recording "
+             "with `spikems convert --downsample N` and scale the boxes");
+  WindowScorer scorer(grid, windows_us, kalman_lengths(grid, opt));
   if (!opt.capture_windows.empty()) scorer.capture(opt.capture_window_us, opt.capture_windows);
   scorer.gate_by_events(opt.gate_events);
   scorer.use_boxes(opt.boxes);
@@ -115,6 +134,7 @@ SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq
   so.threads = opt.threads;
   so.block_steps = std::max(1, opt.block_steps);
   so.label_tolerance_steps = std::max(0, opt.label_tolerance_steps);
+  so.downsample = ds;
   Segmenter seg(model, ev.sensor, so, seq.name);
   size_t labelled = 0;  // the runtime labels every event, in input order
   auto drain = [&] {
@@ -131,7 +151,8 @@ SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq
   constexpr size_t kChunk = 4096;
   for (size_t b = 0; b < n; b += kChunk) {
     const EventStream chunk = ev.slice_index(b, std::min(n, b + kChunk));
-    scorer.add_events(chunk);  // before the frames the chunk gives (window_scorer.h)
+    // Before the frames the chunk gives (window_scorer.h).
+    scorer.add_events(ds > 1 ? remap_events(chunk, geo) : chunk);
     seg.push(chunk);
     drain();
     r.events += chunk.size();

@@ -50,6 +50,9 @@ struct SequenceScoreOptions {
   // > 1: windows scored in groups of so many consecutive ones, P and G united over the kept
   // windows of a group (WindowScorer::group_windows; the SpikeMS authors' test).
   int group_windows = 1;
+  // The network sees the sensor downsampled by this factor (SegmenterOptions::downsample) and
+  // P and G are scored on its grid; 0 = auto (model_scale.h: nearest the model's training grid).
+  int downsample = 0;
 };
 
 struct SequenceScore {
@@ -64,6 +67,7 @@ struct SequenceScore {
   // Per window length (windows_us): the events of its whole windows, predicted moving by the
   // runtime's labels (model) or by the baseline's rule, against their labels.
   std::vector<EventCounts> events_pr;
+  int downsample = 1;  // the factor the network saw the sequence at (SequenceScoreOptions)
 };
 
 // The model's simulation step in microseconds (as the Segmenter takes it).

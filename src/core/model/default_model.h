@@ -16,4 +16,10 @@ std::string find_default_model();
 // The same, or Error saying where it looked and what to do.
 std::string default_model_or_fail();
 
+// A --model argument: "" = the default model (default_model_or_fail); a bare name without '/'
+// or '.' that is not a file ("fast", "default") = models/spikems-<name>.safetensors in the
+// shipped models' folders (as above, $SPIKEMS_MODEL aside), or Error listing what is there;
+// anything else is a path, returned as given.
+std::string resolve_model(const std::string& arg);
+
 }  // namespace spikems

@@ -41,6 +41,8 @@ void check_compatible(const ModelSpec& a, const ModelSpec& b, const std::string&
   same_num(a.time_step_ms, b.time_step_ms, source, "", "the time step (ms)");
   same_num(a.input_width, b.input_width, source, "", "the input width");
   same_num(a.input_height, b.input_height, source, "", "the input height");
+  same_num(a.train_width, b.train_width, source, "", "the training grid's width");
+  same_num(a.train_height, b.train_height, source, "", "the training grid's height");
   same_num(a.output_gate_steps, b.output_gate_steps, source, "", "the output gate (steps)");
   same_num(a.ann_history, b.ann_history, source, "", "the frame history");
   same_num(double(a.layers.size()), double(b.layers.size()), source, "", "the layer count");

@@ -74,6 +74,11 @@ void ModelSpec::validate(const std::string& src) const {
     fail(src, "", "time step must be in (0, 1000] ms");
   if (input_width < 0 || input_height < 0 || input_width > 65535 || input_height > 65535)
     fail(src, "", "input size out of range");
+  if (train_width < 0 || train_height < 0 || train_width > 65535 || train_height > 65535 ||
+      (train_width == 0) != (train_height == 0))
+    fail(src, "",
+         "train_width/train_height must both be 0 (not recorded) or both 1 to 65535, got " +
+             std::to_string(train_width) + "x" + std::to_string(train_height));
   if (output_gate_steps < 0 || output_gate_steps > kMaxOutputGateSteps)
     fail(src, "",
          "output_gate_steps must be 0 (off) to " + std::to_string(kMaxOutputGateSteps) + ", got " +
@@ -367,6 +372,11 @@ nlohmann::json spec_to_json(const ModelSpec& s) {
   j["time_step_ms"] = s.time_step_ms;
   j["input_width"] = s.input_width;
   j["input_height"] = s.input_height;
+  // Written only when recorded, so that older files rewrite byte for byte.
+  if (s.train_width != 0) {
+    j["train_width"] = s.train_width;
+    j["train_height"] = s.train_height;
+  }
   if (s.output_gate_steps != 0) j["output_gate_steps"] = s.output_gate_steps;
   if (s.ann_history != 0) j["ann_history"] = s.ann_history;
   j["training"] = s.training;
@@ -411,6 +421,8 @@ ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
     s.time_step_ms = j.at("time_step_ms").get<double>();
     s.input_width = j.value("input_width", 0);
     s.input_height = j.value("input_height", 0);
+    s.train_width = j.value("train_width", 0);
+    s.train_height = j.value("train_height", 0);
     s.output_gate_steps = j.value("output_gate_steps", 0);
     s.ann_history = j.value("ann_history", 0);
     if (j.contains("training")) s.training = j["training"];

@@ -80,6 +80,10 @@ struct ModelSpec {
   double time_step_ms = 1.0;
   // Sensor size the model was trained for (0 = any). The runtime checks it when set.
   int input_width = 0, input_height = 0;
+  // The pixel grid of the data it was trained on (after any downsampling; 0 = not recorded).
+  // A network learns objects and edges of a pixel scale: the runtime downsamples a larger
+  // sensor by the power of two that brings its grid nearest this one (model_scale.h).
+  int train_width = 0, train_height = 0;
   std::vector<LayerSpec> layers;
   // The output gate (docs/model-format.md, "Output gate"), spiking models only: K > 0 keeps an
   // output spike of step s only where its pixel (output pixel (y, x) = input pixel (y, x)) had

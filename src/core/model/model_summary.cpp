@@ -37,6 +37,7 @@ nlohmann::json model_summary(const ModelSpec& m) {
   j["time_step_ms"] = m.time_step_ms;
   j["input_width"] = m.input_width;
   j["input_height"] = m.input_height;
+  if (m.train_width > 0) j["train_grid"] = {m.train_width, m.train_height};
   int64_t weights = 0;
   nlohmann::json layers = nlohmann::json::array();
   for (const LayerSpec& l : m.layers) {
@@ -107,6 +108,11 @@ std::string model_summary_text(const std::string& path, const ModelSpec& m) {
   line("input", m.input_width > 0
                     ? std::to_string(m.input_width) + " x " + std::to_string(m.input_height)
                     : std::string("any sensor size"));
+  if (m.train_width > 0)
+    line("pixel scale", "trained on a " + std::to_string(m.train_width) + " x " +
+                            std::to_string(m.train_height) +
+                            " grid; larger sensors are downsampled to the nearest grid "
+                            "(segment/eval --downsample auto)");
   std::string chain;
   for (size_t k = 0; k < m.layers.size(); ++k) {
     const LayerSpec& l = m.layers[k];

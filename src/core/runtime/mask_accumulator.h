@@ -15,6 +15,9 @@ struct PredictionFrame {
   int64_t t0_us = 0, t1_us = 0;
   int index = 0;
   int width = 0, height = 0;
+  // Pixel (x, y) covers sensor pixels [x*scale, (x+1)*scale) x [y*scale, (y+1)*scale): > 1 when
+  // the network sees the sensor downsampled (SegmenterOptions::downsample).
+  int scale = 1;
   std::vector<uint8_t> foreground;  // [y*width + x], 0/1
   std::vector<uint16_t> events;     // input events per pixel (saturating)
   size_t foreground_pixels() const;

@@ -36,7 +36,8 @@ struct SegmenterOptions {
   bool whole_network = false;
   // The network sees the events at 1/downsample of the sensor's resolution, pixel (x / f, y / f)
   // (1, 2, 4 or 8), as a model trained on `spikems convert --downsample f` data expects; the
-  // labels still go to the original events. Mask frames are then at the network's resolution.
+  // labels still go to the original events. Mask frames are then at the network's resolution
+  // (PredictionFrame::scale). Callers choose it with resolve_downsample (model_scale.h).
   int downsample = 1;
 };
 
@@ -77,6 +78,13 @@ class Segmenter {
   void end_step();             // the current step's input is complete: queues it for the network
   void run_block();            // the queued steps into the network
   void deliver(size_t ready);  // the next `ready` steps' outputs to the labeller and masks
+  // Runs `close` (which appends frames) and marks the new frames with the downsampling scale.
+  template <class F>
+  void close_frames(F&& close) {
+    const size_t before = frames_.size();
+    close();
+    for (size_t i = before; i < frames_.size(); ++i) frames_[i].scale = 1 << ds_shift_;
+  }
   std::string source_;
   SensorSize sensor_;
   int ds_shift_;           // log2(opt.downsample)

@@ -475,6 +475,13 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   std::vector<const LabelledSequence*> train_ptr, val_ptr;
   for (auto& s : train_seqs) train_ptr.push_back(&s);
   for (auto& s : val_seqs) val_ptr.push_back(&s);
+  // The pixel scale the model learns (ModelSpec::train_width/height): the training data's
+  // sensor when every training sequence has the same one; the runtime downsamples larger
+  // sensors towards it (model_scale.h). Mixed sizes record none.
+  SensorSize train_grid = train_seqs.empty() ? SensorSize{} : train_seqs.front().events.sensor;
+  for (const auto& s : train_seqs)
+    if (s.events.sensor.width != train_grid.width || s.events.sensor.height != train_grid.height)
+      train_grid = SensorSize{};
   const double ts = double(c.sample.step_us) / 1000.0;
   // The rendezvous after loading the data, so that ranks loading at different speeds do not
   // spend the timeout.
@@ -667,6 +674,10 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
   auto save_model_file = [&](const std::string& path) {
     ModelSpec m = net.to_spec();
     m.name = dir.filename().string();
+    if (train_grid.known()) {
+      m.train_width = train_grid.width;
+      m.train_height = train_grid.height;
+    }
     m.training = {{"config", c.source},
                   {"steps", st.step},
                   {"wall_seconds", st.wall_seconds},

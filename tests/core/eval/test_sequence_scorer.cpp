@@ -8,6 +8,7 @@
 #include "common/tiny_models.h"
 #include "core/eval/sequence_scorer.h"
 #include "core/eval/window_scorer.h"
+#include "core/events/event_ops.h"
 #include "core/runtime/segmenter.h"
 #include "core/util/error.h"
 
@@ -234,6 +235,47 @@ TEST(SequenceScorer, SeveralWindowLengthsFromOneRunEqualOneRunEach) {
   auto threaded = score_sequence(m, seq, windows, o);
   for (size_t i = 0; i < windows.size(); ++i)
     EXPECT_EQ(threaded.scores[i].ious(), all.scores[i].ious()) << windows[i] << " us";
+}
+
+// A downsampled network is scored on its grid: scoring the 32x24 square with the network at
+// half resolution equals scoring the sequence converted to 16x12 (`convert --downsample 2`) at
+// full, window for window and event for event; the factor comes from the model's training grid
+// when not given (auto), and an explicit 1 overrides it.
+TEST(SequenceScorer, DownsampledNetworkEqualsTheConvertedSequence) {
+  ModelSpec m = random_model();
+  const LabelledSequence seq = moving_square();
+  LabelledSequence half = seq;
+  BinningConfig geo;
+  geo.downsample = 2;
+  half.events = remap_events(seq.events, geo);
+  ASSERT_EQ(half.events.sensor.width, 16);
+  const std::vector<int64_t> windows = {2000, 10000};
+  SequenceScoreOptions o;
+  const SequenceScore converted = score_sequence(m, half, windows, o);
+  o.downsample = 2;
+  const SequenceScore ds = score_sequence(m, seq, windows, o);
+  m.train_width = 16;
+  m.train_height = 12;
+  o.downsample = 0;  // auto: 32x24 comes nearest 16x12 at 2
+  const SequenceScore autods = score_sequence(m, seq, windows, o);
+  o.downsample = 1;
+  const SequenceScore full = score_sequence(m, seq, windows, o);
+  bool differs = false;
+  for (size_t i = 0; i < windows.size(); ++i) {
+    EXPECT_EQ(ds.scores[i].ious(), converted.scores[i].ious()) << windows[i];
+    EXPECT_EQ(ds.scores[i].skipped(), converted.scores[i].skipped()) << windows[i];
+    EXPECT_EQ(ds.scores[i].detection_rate(), converted.scores[i].detection_rate()) << windows[i];
+    EXPECT_EQ(autods.scores[i].ious(), ds.scores[i].ious()) << windows[i];
+    EXPECT_GT(ds.scores[i].windows(), 10u);
+    differs = differs || full.scores[i].ious() != ds.scores[i].ious();
+  }
+  ASSERT_EQ(ds.events_pr.size(), converted.events_pr.size());
+  for (size_t i = 0; i < ds.events_pr.size(); ++i) {
+    EXPECT_EQ(ds.events_pr[i].tp, converted.events_pr[i].tp);
+    EXPECT_EQ(ds.events_pr[i].fp, converted.events_pr[i].fp);
+    EXPECT_EQ(ds.events_pr[i].fn, converted.events_pr[i].fn);
+  }
+  EXPECT_TRUE(differs) << "full and half resolution score alike: the comparison is vacuous";
 }
 
 TEST(SequenceScorer, WindowsMustBeWholeStepsAndDataLabelled) {

@@ -11,6 +11,7 @@
 #include "core/events/io.h"
 #include "core/model/model_file.h"
 #include "core/model/time_step.h"
+#include "core/viz/image.h"
 
 namespace spikems {
 namespace {
@@ -80,6 +81,17 @@ TEST(SegmentCli, DefaultModelComesFromSpikemsModel) {
                         &out),
             1);
   EXPECT_NE(out.find("give --model FILE, or set SPIKEMS_MODEL"), std::string::npos) << out;
+  // A bare name is a shipped model (models/spikems-NAME.safetensors beside the build); one
+  // that is not shipped lists those that are. (tests/package/test_install.sh runs `fast`.)
+  EXPECT_EQ(run_command(spikems_binary() + " segment --quiet --model nosuchname --input " + ev +
+                            " --out " + d + "/x.txt 2>&1",
+                        &out),
+            1);
+  EXPECT_NE(out.find("no shipped model of that name (spikems-nosuchname.safetensors"),
+            std::string::npos)
+      << out;
+  EXPECT_NE(out.find("default"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(d + "/x.txt"));
 }
 
 TEST(SegmentCli, LabelsMasksBoxesAndStats) {
@@ -192,11 +204,18 @@ TEST(SegmentCli, BlockStepsGiveIdenticalOutputs) {
 
 // --downsample 2: the pass-OFF model sees the square at half resolution, where its OFF and ON
 // edges (6 px apart) stay in different pixels, so every OFF event is still foreground and
-// every ON event background; the label lines keep the events' own coordinates. Mask frames,
-// boxes and --score are refused with it, and so is a factor other than 1, 2, 4, 8.
+// every ON event background; the label lines keep the events' own coordinates. A model that
+// records a 32x24 training grid is run so on this 64x48 sensor by default (auto), the same
+// labels; its mask frames come at the sensor's size in 2x2 blocks (1 ms frames: the OFF edge
+// is one column wide at full resolution, two at half) and its boxes in sensor pixels.
 TEST(SegmentCli, DownsampleLabelsTheOriginalEvents) {
   std::string d = scratch_dir();
   std::string model = write_pass_off_model(d), ev = write_events(d);
+  ModelSpec gm = load_model(model);
+  gm.train_width = 32;
+  gm.train_height = 24;
+  const std::string grid_model = d + "/grid.safetensors";
+  save_model(grid_model, gm);
   std::string out;
   ASSERT_EQ(run_command(spikems_binary() + " segment --quiet --model " + model + " --input " + ev +
                             " --downsample 2 --out " + d + "/ds.txt",
@@ -211,14 +230,63 @@ TEST(SegmentCli, DownsampleLabelsTheOriginalEvents) {
     EXPECT_EQ(rows[i][2], src[i][2]);
     EXPECT_EQ(rows[i][4], rows[i][3] == 0 ? 1 : 0) << "row " << i;  // OFF foreground
   }
-  for (const std::string& extra :
-       std::vector<std::string>{" --score", " --boxes " + d + "/b.csv", " --downsample 3"}) {
+  // Auto: the note names the grid and the factor; the labels are the explicit factor's.
+  ASSERT_EQ(run_command(spikems_binary() + " segment --model " + grid_model + " --input " + ev +
+                            " --out " + d + "/auto.txt --masks-dir " + d +
+                            "/m2 --mask-window 1ms --boxes " + d + "/b2.csv",
+                        &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("32x24 grid"), std::string::npos) << out;
+  EXPECT_NE(out.find("downsampled 2x"), std::string::npos) << out;
+  EXPECT_EQ(read_rows(d + "/auto.txt"), rows);
+  ASSERT_EQ(run_command(spikems_binary() + " segment --quiet --model " + grid_model + " --input " +
+                            ev + " --downsample 1 --masks-dir " + d + "/m1 --mask-window 1ms",
+                        &out),
+            0)
+      << out;
+  // Frame 10 (1 ms): at half resolution every white pixel's 2x2 block is white (pairs of
+  // columns x = 2k, 2k+1); at full resolution the trail of the moving OFF edge is not.
+  std::vector<int> cols[2];
+  for (int k = 0; k < 2; ++k) {
+    const Image img = read_png_rgb(d + (k == 0 ? "/m1" : "/m2") + "/mask_000010.png");
+    ASSERT_EQ(img.width, 64);
+    ASSERT_EQ(img.height, 48);
+    for (int x = 0; x < 64; ++x)
+      if (img.is(x, 22, 255, 255, 255)) cols[k].push_back(x);
+  }
+  auto paired = [](const std::vector<int>& c) {
+    if (c.size() % 2) return false;
+    for (size_t i = 0; i < c.size(); i += 2)
+      if (c[i] % 2 != 0 || c[i + 1] != c[i] + 1) return false;
+    return true;
+  };
+  ASSERT_FALSE(cols[1].empty());
+  EXPECT_TRUE(paired(cols[1])) << ::testing::PrintToString(cols[1]);
+  ASSERT_FALSE(cols[0].empty());
+  EXPECT_FALSE(paired(cols[0])) << ::testing::PrintToString(cols[0]);
+  std::ifstream boxes(d + "/b2.csv");
+  std::string header, line;
+  std::getline(boxes, header);
+  int lines = 0;
+  while (std::getline(boxes, line)) {
+    double t, id, x0, y0, x1, y1;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf", &t, &id, &x0, &y0, &x1, &y1), 6)
+        << line;
+    // The square's rows 20..25 in sensor pixels: at grid scale they would centre near 11.
+    EXPECT_GE((y0 + y1) / 2, 20) << line;
+    EXPECT_LE((y0 + y1) / 2, 26) << line;
+    EXPECT_GE(y1 - y0, 4) << line;
+    ++lines;
+  }
+  EXPECT_GT(lines, 0);
+  for (const std::string& extra : std::vector<std::string>{" --downsample 3", " --downsample x"}) {
     EXPECT_NE(run_command(spikems_binary() + " segment --quiet --model " + model + " --input " +
-                              ev + " --downsample 2 --out " + d + "/bad.txt" + extra,
+                              ev + " --out " + d + "/bad.txt" + extra,
                           &out),
               0)
         << extra;
-    EXPECT_NE(out.find("downsample"), std::string::npos) << out;
+    EXPECT_NE(out.find("downsampl"), std::string::npos) << out;
     EXPECT_FALSE(std::filesystem::exists(d + "/bad.txt"));
   }
 }
