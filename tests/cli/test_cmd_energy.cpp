@@ -97,6 +97,30 @@ TEST(EnergyCli, CountsOnATinyDataset) {
               1e-6 * j["per_sample"]["benefit"].get<double>());
   EXPECT_NE(out.find("SynOps per sample (x10^8)"), std::string::npos) << out;
   EXPECT_NE(slurp(o + "/results.md").find("| layer | kind |"), std::string::npos);
+  EXPECT_EQ(j["downsample"], 1);
+  // A model whose training grid is half the sensor runs at half resolution, and the ANN's MACs
+  // are counted on that grid (a quarter of the positions).
+  {
+    ModelSpec half = hourglass();
+    half.train_width = (w + 1) / 2;
+    half.train_height = (h + 1) / 2;
+    save_model(dir + "/half.safetensors", half);
+    const std::string oh = dir + "/out_half";
+    ASSERT_EQ(run_command(spikems_binary() + " energy --quiet --model " + dir +
+                              "/half.safetensors --data " + dir +
+                              "/tiny --split all --window-ms 10 --out " + oh,
+                          &out),
+              0)
+        << out;
+    const auto jh = nlohmann::json::parse(slurp(oh + "/results.json"));
+    EXPECT_EQ(jh["downsample"], 2);
+    const int hw = jh["sensor"]["width"], hh = jh["sensor"]["height"];
+    EXPECT_EQ(hw, (w + 1) / 2);
+    EXPECT_EQ(hh, (h + 1) / 2);
+    EXPECT_EQ(jh["layers"][0]["ann_macs_per_sample"],
+              int64_t((hw + 1) / 2) * ((hh + 1) / 2) * 4 * 2 * 9);
+    EXPECT_EQ(jh["events"], events);
+  }
 
   // Bad input: exit 1, a message naming what is wrong, nothing written.
   const std::string o2 = dir + "/out_bad";

@@ -9,6 +9,7 @@
 #include "core/eval/metrics.h"
 #include "core/eval/results.h"
 #include "core/events/io.h"
+#include "core/model/model_scale.h"
 #include "core/runtime/segmenter.h"
 #include "core/util/atomic_file.h"
 #include "core/util/error.h"
@@ -157,12 +158,17 @@ EnergyReport measure_energy(const EnergyOptions& opt) {
       bar.update(done);
       const EventStream ev = read_events(f);
       if (!ev.sensor.known()) fail(f, "", "the sensor size is unknown");
+      // The model runs at the resolution its training grid asks for (as segment and eval run
+      // it), and the ANN's MACs are counted at that grid too.
+      const int ds = nearest_downsample(model, ev.sensor.width, ev.sensor.height);
+      const int gw = (ev.sensor.width + ds - 1) / ds, gh = (ev.sensor.height + ds - 1) / ds;
       if (r.width == 0) {
-        r.width = ev.sensor.width;
-        r.height = ev.sensor.height;
-      } else if (ev.sensor.width != r.width || ev.sensor.height != r.height) {
+        r.width = gw;
+        r.height = gh;
+        r.downsample = ds;
+      } else if (gw != r.width || gh != r.height) {
         fail(f, "",
-             "sensor " + std::to_string(ev.sensor.width) + "x" + std::to_string(ev.sensor.height) +
+             "the network's grid " + std::to_string(gw) + "x" + std::to_string(gh) +
                  " differs from the first sequence's " + std::to_string(r.width) + "x" +
                  std::to_string(r.height) +
                  ": the ANN's MACs depend on the resolution, measure each size apart");
@@ -183,6 +189,7 @@ EnergyReport measure_energy(const EnergyOptions& opt) {
       // The whole fitted size, as the ANN's MACs count it (the runtime skips the padding's
       // neurons; counting them keeps the ratio between equal networks).
       so.whole_network = true;
+      so.downsample = ds;
       Segmenter seg(model, ev.sensor, so, f);
       constexpr size_t kChunk = 1 << 16;
       for (size_t b = 0; b < n && !interrupted(); b += kChunk) {
@@ -229,6 +236,7 @@ nlohmann::ordered_json energy_json(const EnergyReport& r) {
       r.max_seconds > 0 ? nlohmann::ordered_json(r.max_seconds) : nlohmann::ordered_json(nullptr);
   j["interrupted"] = r.interrupted;
   j["sensor"] = {{"width", r.width}, {"height", r.height}};
+  j["downsample"] = r.downsample;
   j["window_ms"] = r.window_ms;
   j["sequences"] = r.sequences;
   j["events"] = r.events;
@@ -308,8 +316,10 @@ std::string energy_markdown(const EnergyReport& r) {
          fmt("%g", r.time_step_ms) + " ms" + (r.iir ? ", FIR layers run as IIR" : "") + ")\n";
   out += "- data: " + std::to_string(r.sequences) + " sequences, " + std::to_string(r.events) +
          " events, " + fmt("%.3f", r.seconds) + " s, sensor " + std::to_string(r.width) + "x" +
-         std::to_string(r.height) + "; sample = " + fmt("%g", r.window_ms) +
-         " ms on the whole sensor (" + fmt("%.1f", r.samples) + " samples)\n";
+         std::to_string(r.height) +
+         (r.downsample > 1 ? " (downsampled " + std::to_string(r.downsample) + "x)" : "") +
+         "; sample = " + fmt("%g", r.window_ms) + " ms on the whole sensor (" +
+         fmt("%.1f", r.samples) + " samples)\n";
   if (r.interrupted) out += "- **interrupted**: the sequences finished before Ctrl-C only\n";
   out +=
       "\nSynOps as the runtime counts them (each input spike times the neurons it reached, "

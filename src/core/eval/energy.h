@@ -49,7 +49,8 @@ struct EnergyReport {
   std::vector<std::string> data;
   std::string split;
   double time_step_ms = 1, window_ms = 10, max_seconds = 0;
-  int width = 0, height = 0;
+  int width = 0, height = 0;  // the grid the network sees (the sensor's, or downsampled)
+  int downsample = 1;         // model_scale.h: the factor its training grid asks for
   bool iir = false, interrupted = false;
   uint64_t sequences = 0, events = 0, steps = 0;
   double seconds = 0;  // data span run, summed over sequences
