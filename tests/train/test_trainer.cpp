@@ -210,6 +210,10 @@ TEST(Trainer, LossFallsAndValidationBeatsTheUntrainedNetwork) {
   EXPECT_EQ(m.training["steps"], 100);
   EXPECT_EQ(m.layers.size(), 6u);
   EXPECT_EQ(m.layers[0].neuron.discretisation, Discretisation::IIR);
+  // The pixel scale it learned: the training data's sensor (docs/runtime.md, "Pixel scale").
+  const SensorSize sensor = read_recording(data + "/seq_0000.h5").events.sensor;
+  EXPECT_EQ(m.train_width, sensor.width);
+  EXPECT_EQ(m.train_height, sensor.height);
   EXPECT_TRUE(fs::exists(dir + "/best.safetensors"));
   EXPECT_TRUE(fs::exists(dir + "/curves.svg"));
 }
@@ -274,6 +278,8 @@ TEST(Trainer, WholeSensorTrainingMixesSensorSizes) {
   EXPECT_NEAR(val[1]["full_iou"].get<double>(), w.iou_mean, 1e-9);
   EXPECT_GT(val[1]["full_iou"].get<double>(), val[0]["full_iou"].get<double>() + 5.0);
   EXPECT_GT(val[1]["iou"].get<double>(), val[0]["iou"].get<double>() + 5.0);
+  // Two sensor sizes in the training data: no single pixel scale is recorded.
+  EXPECT_EQ(load_model(dir + "/model.safetensors").train_width, 0);
 }
 
 // data.val_static: at each validation the share of the static scenes' events the model calls
