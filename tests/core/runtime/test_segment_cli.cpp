@@ -509,6 +509,28 @@ TEST(SegmentCli, ScoreGivesThePapersIoUAndDetectionRate) {
   EXPECT_NE(out.find("score over 4 windows of 10 ms"), std::string::npos) << out;
   EXPECT_NE(out.find("IoU 50.0 % +- 0.0, detection rate 0.0 %"), std::string::npos) << out;
 
+  // Only x = 10 moving: P = {10..13}, G = {10} at full resolution (IoU 25 %); at half, P = the
+  // network's pixels {5, 6}, G = {5} (IoU 50 %): the score is on the grid the network sees.
+  std::string ev1 = d + "/labelled1.txt";
+  {
+    std::ofstream f(ev1);
+    f << "# sensor 48 16\n";
+    for (int t = 0; t < 40; ++t) {
+      for (int x = 10; x < 14; ++x) f << t * 1000 + 100 << " " << x << " 5 0 " << (x < 11) << "\n";
+      for (int x = 30; x < 34; ++x) f << t * 1000 + 200 << " " << x << " 5 1 0\n";
+    }
+  }
+  for (const auto& [factor, want] :
+       {std::pair{1, "IoU 25.0 % +- 0.0"}, std::pair{2, "IoU 50.0 % +- 0.0"}}) {
+    ASSERT_EQ(
+        run_command(spikems_binary() + " segment --quiet --score --mask-window 10ms --model " +
+                        model + " --input " + ev1 + " --downsample " + std::to_string(factor),
+                    &out),
+        0)
+        << out;
+    EXPECT_NE(out.find(want), std::string::npos) << factor << ": " << out;
+  }
+
   // Unlabelled input cannot be scored: a clear error, non-zero exit.
   std::string plain = write_events(d);
   EXPECT_NE(run_command(spikems_binary() + " segment --quiet --score --model " + model +
