@@ -749,6 +749,23 @@ TEST_F(EvalCli, DownsampleScoresOnTheNetworksGrid) {
     EXPECT_NE(out.find(bad.substr(1, bad.find(' ', 1) - 1)), std::string::npos) << out;
   }
   EXPECT_FALSE(fs::exists(dir_ + "/ds_bad/results.json"));
+  // A model that records its grid takes no other one.
+  ModelSpec g = load_model(model());
+  g.train_width = 32;
+  g.train_height = 24;
+  save_model(dir_ + "/grid.safetensors", g);
+  EXPECT_EQ(run_command(spikems_binary() + " eval --quiet --model " + dir_ + "/grid.safetensors" +
+                            full_args + " --train-grid 16x12 --out " + dir_ + "/ds_bad",
+                        &out),
+            1);
+  EXPECT_NE(out.find("records its own training grid, 32x24"), std::string::npos) << out;
+  // The same grid is no conflict: both models (pass-all given it, the file's own) run at 2.
+  EXPECT_EQ(rows(" --model " + dir_ + "/grid.safetensors" + full_args + " --train-grid 32x24",
+                 dir_ + "/ds_same", 2),
+            converted);
+  const auto js = nlohmann::json::parse(slurp(dir_ + "/ds_same/results.json"));
+  ASSERT_EQ(js["models"].size(), 2u);
+  EXPECT_EQ(js["models"][1]["downsample"], 2);
 }
 
 TEST_F(EvalCli, HelpShowsOptionsAndExamples) {

@@ -110,6 +110,11 @@ EvalResults evaluate(const EvalOptions& opt, EvalExamples* examples) {
       opt.output_gates_us.empty() ? std::vector<int64_t>{-1} : opt.output_gates_us;
   for (const auto& p : paths) {
     ModelSpec m = load_model(p);
+    if (opt.train_width > 0 && m.train_width > 0 &&
+        (opt.train_width != m.train_width || opt.train_height != m.train_height))
+      fail("--train-grid", p,
+           "the model records its own training grid, " + std::to_string(m.train_width) + "x" +
+               std::to_string(m.train_height) + ": drop --train-grid (or use --downsample N)");
     if (opt.train_width > 0 && m.train_width == 0) {
       m.train_width = opt.train_width;
       m.train_height = opt.train_height;
