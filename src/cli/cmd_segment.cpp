@@ -141,10 +141,13 @@ void print_stats(const Segmenter& seg, double wall_s, double setup_s) {
   std::fprintf(
       stderr,
       "events %" PRIu64 " (%.1f%% foreground), %" PRId64 " steps of %" PRId64
-      " us, label window %d steps\n",
+      " us, label window %d steps%s\n",
       seg.events_in(),
       seg.events_in() ? 100.0 * double(seg.foreground_events()) / double(seg.events_in()) : 0.0,
-      seg.steps(), seg.step_us(), seg.label_window_steps());
+      seg.steps(), seg.step_us(), seg.label_window_steps(),
+      seg.downsample() > 1
+          ? (", the sensor downsampled " + std::to_string(seg.downsample()) + "x").c_str()
+          : "");
   std::fprintf(stderr,
                "simulated %.3f s in %.3f s wall (setup %.3f s, network %.3f s): %s events/s, "
                "real-time factor %.2f (after setup %.2f, network only %.2f)\n",

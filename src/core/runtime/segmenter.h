@@ -71,6 +71,7 @@ class Segmenter {
   int64_t steps() const { return net_.steps_done(); }
   int64_t step_us() const { return step_us_; }
   int label_window_steps() const { return labeller_.window_steps(); }
+  int downsample() const { return 1 << ds_shift_; }  // the factor the network sees the sensor at
   uint64_t foreground_events() const { return labeller_.foreground_count(); }
   double network_seconds() const { return net_seconds_; }  // wall time inside the network
 

@@ -232,13 +232,15 @@ TEST(SegmentCli, DownsampleLabelsTheOriginalEvents) {
   }
   // Auto: the note names the grid and the factor; the labels are the explicit factor's.
   ASSERT_EQ(run_command(spikems_binary() + " segment --model " + grid_model + " --input " + ev +
-                            " --out " + d + "/auto.txt --masks-dir " + d +
+                            " --stats --out " + d + "/auto.txt --masks-dir " + d +
                             "/m2 --mask-window 1ms --boxes " + d + "/b2.csv",
                         &out),
             0)
       << out;
   EXPECT_NE(out.find("32x24 grid"), std::string::npos) << out;
   EXPECT_NE(out.find("downsampled 2x"), std::string::npos) << out;
+  EXPECT_NE(out.find("steps, the sensor downsampled 2x"), std::string::npos)
+      << out;  // --stats
   EXPECT_EQ(read_rows(d + "/auto.txt"), rows);
   ASSERT_EQ(run_command(spikems_binary() + " segment --quiet --model " + grid_model + " --input " +
                             ev + " --downsample 1 --masks-dir " + d + "/m1 --mask-window 1ms",
