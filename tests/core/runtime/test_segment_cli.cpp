@@ -239,8 +239,7 @@ TEST(SegmentCli, DownsampleLabelsTheOriginalEvents) {
       << out;
   EXPECT_NE(out.find("32x24 grid"), std::string::npos) << out;
   EXPECT_NE(out.find("downsampled 2x"), std::string::npos) << out;
-  EXPECT_NE(out.find("steps, the sensor downsampled 2x"), std::string::npos)
-      << out;  // --stats
+  EXPECT_NE(out.find("steps, the sensor downsampled 2x"), std::string::npos) << out;  // --stats
   EXPECT_EQ(read_rows(d + "/auto.txt"), rows);
   ASSERT_EQ(run_command(spikems_binary() + " segment --quiet --model " + grid_model + " --input " +
                             ev + " --downsample 1 --masks-dir " + d + "/m1 --mask-window 1ms",
@@ -487,6 +486,19 @@ TEST(SegmentCli, BadInputFailsWithAClearMessage) {
 namespace spikems {
 namespace {
 
+// A 48x16 sensor, 40 ms: OFF events every millisecond at x = 10..13 (y = 5), labelled moving
+// where x < moving_below, and ON events at x = 30..33, all background.
+std::string write_labelled_row(const std::string& path, int moving_below) {
+  std::ofstream f(path);
+  f << "# sensor 48 16\n";
+  for (int t = 0; t < 40; ++t) {
+    for (int x = 10; x < 14; ++x)
+      f << t * 1000 + 100 << " " << x << " 5 0 " << (x < moving_below) << "\n";
+    for (int x = 30; x < 34; ++x) f << t * 1000 + 200 << " " << x << " 5 1 0\n";
+  }
+  return path;
+}
+
 // --score on an analytic case: OFF events every millisecond at 4 fixed pixels, all passed
 // through by the model, so every 10 ms window predicts those 4 pixels; only 2 of them carry a
 // moving-object label. Each window: |P∩G| = 2, |P∪G| = 4 → IoU 0.5; |P∩G| = |P \ G| → no
@@ -494,15 +506,7 @@ namespace {
 TEST(SegmentCli, ScoreGivesThePapersIoUAndDetectionRate) {
   std::string d = scratch_dir();
   std::string model = write_pass_off_model(d);
-  std::string ev = d + "/labelled.txt";
-  {
-    std::ofstream f(ev);
-    f << "# sensor 48 16\n";
-    for (int t = 0; t < 40; ++t) {
-      for (int x = 10; x < 14; ++x) f << t * 1000 + 100 << " " << x << " 5 0 " << (x < 12) << "\n";
-      for (int x = 30; x < 34; ++x) f << t * 1000 + 200 << " " << x << " 5 1 0\n";
-    }
-  }
+  std::string ev = write_labelled_row(d + "/labelled.txt", 12);
   std::string out;
   int rc = run_command(spikems_binary() + " segment --quiet --score --mask-window 10ms --model " +
                            model + " --input " + ev,
@@ -513,15 +517,7 @@ TEST(SegmentCli, ScoreGivesThePapersIoUAndDetectionRate) {
 
   // Only x = 10 moving: P = {10..13}, G = {10} at full resolution (IoU 25 %); at half, P = the
   // network's pixels {5, 6}, G = {5} (IoU 50 %): the score is on the grid the network sees.
-  std::string ev1 = d + "/labelled1.txt";
-  {
-    std::ofstream f(ev1);
-    f << "# sensor 48 16\n";
-    for (int t = 0; t < 40; ++t) {
-      for (int x = 10; x < 14; ++x) f << t * 1000 + 100 << " " << x << " 5 0 " << (x < 11) << "\n";
-      for (int x = 30; x < 34; ++x) f << t * 1000 + 200 << " " << x << " 5 1 0\n";
-    }
-  }
+  std::string ev1 = write_labelled_row(d + "/labelled1.txt", 11);
   for (const auto& [factor, want] :
        {std::pair{1, "IoU 25.0 % +- 0.0"}, std::pair{2, "IoU 50.0 % +- 0.0"}}) {
     ASSERT_EQ(
