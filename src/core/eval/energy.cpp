@@ -8,6 +8,7 @@
 #include "core/dataset/sequence.h"
 #include "core/eval/metrics.h"
 #include "core/eval/results.h"
+#include "core/events/binning.h"
 #include "core/events/io.h"
 #include "core/model/model_scale.h"
 #include "core/runtime/segmenter.h"
@@ -161,7 +162,9 @@ EnergyReport measure_energy(const EnergyOptions& opt) {
       // The model runs at the resolution its training grid asks for (as segment and eval run
       // it), and the ANN's MACs are counted at that grid too.
       const int ds = nearest_downsample(model, ev.sensor.width, ev.sensor.height);
-      const int gw = (ev.sensor.width + ds - 1) / ds, gh = (ev.sensor.height + ds - 1) / ds;
+      BinningConfig geo;
+      geo.downsample = ds;
+      const auto [gh, gw] = binned_size(ev.sensor, geo);
       if (r.width == 0) {
         r.width = gw;
         r.height = gh;

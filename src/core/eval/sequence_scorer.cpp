@@ -112,9 +112,8 @@ SequenceScore score_sequence(const ModelSpec& model, const LabelledSequence& seq
   BinningConfig geo;
   geo.downsample = ds;
   r.downsample = ds;
-  const SensorSize grid =
-      ds > 1 ? SensorSize{(ev.sensor.width + ds - 1) / ds, (ev.sensor.height + ds - 1) / ds}
-             : ev.sensor;
+  const auto [gh, gw] = binned_size(ev.sensor, geo);
+  const SensorSize grid{gw, gh};
   if (ds > 1 && opt.boxes)
     fail(seq.name, "",
          "box ground truth is scored on the sensor's grid, but the model runs it downsampled " +
