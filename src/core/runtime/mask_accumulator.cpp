@@ -11,8 +11,8 @@ size_t PredictionFrame::foreground_pixels() const {
 }
 
 MaskAccumulator::MaskAccumulator(SensorSize sensor, int oh, int ow, int oc, int64_t origin,
-                                 int64_t window)
-    : sensor_(sensor), oh_(oh), ow_(ow), oc_(oc), origin_(origin), window_(window) {
+                                 int64_t window, int scale)
+    : sensor_(sensor), oh_(oh), ow_(ow), oc_(oc), scale_(scale), origin_(origin), window_(window) {
   if (window <= 0) fail("mask frames", "", "the mask window must be positive");
   out_fg_.assign(size_t(oh) * ow, 0);
   events_.assign(size_t(sensor.width) * sensor.height, 0);
@@ -43,6 +43,7 @@ void MaskAccumulator::emit(std::vector<PredictionFrame>& out) {
   f.t1_us = f.t0_us + window_;
   f.width = sensor_.width;
   f.height = sensor_.height;
+  f.scale = scale_;
   f.foreground.assign(size_t(f.width) * f.height, 0);
   for (int y = 0; y < f.height; ++y)
     for (int x = 0; x < f.width; ++x) {

@@ -25,8 +25,10 @@ struct PredictionFrame {
 
 class MaskAccumulator {
  public:
+  // `sensor`: the grid the network sees; scale > 1 when that is the sensor downsampled
+  // (PredictionFrame::scale).
   MaskAccumulator(SensorSize sensor, int out_height, int out_width, int out_channels,
-                  int64_t origin_us, int64_t window_us);
+                  int64_t origin_us, int64_t window_us, int scale = 1);
   void add_event(int x, int y);
   // Output spikes of the step starting at t_us.
   void add_spikes(int64_t t_us, const std::vector<uint32_t>& spikes);
@@ -39,7 +41,7 @@ class MaskAccumulator {
   void start(int64_t index);
   void emit(std::vector<PredictionFrame>& out);
   SensorSize sensor_;
-  int oh_, ow_, oc_;
+  int oh_, ow_, oc_, scale_;
   int64_t origin_, window_;
   int64_t index_ = 0;
   bool dirty_ = false;

@@ -121,7 +121,7 @@ void Segmenter::deliver(size_t ready) {
       masks_->add_spikes(origin_ + s * step_us_, out);
     }
     labeller_.on_step(s, out, labelled_);
-    if (masks_) close_frames([&] { masks_->close_until(origin_ + (s + 1) * step_us_, frames_); });
+    if (masks_) masks_->close_until(origin_ + (s + 1) * step_us_, frames_);
   }
 }
 
@@ -155,7 +155,7 @@ void Segmenter::push(const EventStream& c) {
       origin_ = last_t_ = t;
       if (opt_.mask_window_us > 0)
         masks_.emplace(net_sensor_, net_.out_height(), net_.out_width(), net_.out_channels(),
-                       origin_, opt_.mask_window_us);
+                       origin_, opt_.mask_window_us, 1 << ds_shift_);
     }
     if (t < last_t_)
       fail_at_event(source_, idx,
@@ -190,7 +190,7 @@ void Segmenter::finish() {
   while (cur_step_ <= end) end_step();
   run_block();
   while (net_.block_running()) run_block();  // the pipeline's last blocks (threads)
-  if (masks_) close_frames([&] { masks_->flush(frames_); });
+  if (masks_) masks_->flush(frames_);
 }
 
 int default_block_steps(double step_ms, int threads) {

@@ -79,13 +79,6 @@ class Segmenter {
   void end_step();             // the current step's input is complete: queues it for the network
   void run_block();            // the queued steps into the network
   void deliver(size_t ready);  // the next `ready` steps' outputs to the labeller and masks
-  // Runs `close` (which appends frames) and marks the new frames with the downsampling scale.
-  template <class F>
-  void close_frames(F&& close) {
-    const size_t before = frames_.size();
-    close();
-    for (size_t i = before; i < frames_.size(); ++i) frames_[i].scale = 1 << ds_shift_;
-  }
   std::string source_;
   SensorSize sensor_;
   int ds_shift_;           // log2(opt.downsample)
