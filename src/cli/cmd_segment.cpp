@@ -50,6 +50,8 @@ struct Args {
   int tolerance = 3;
   double output_threshold = 1;
   std::string output_gate;  // ms; empty = the model's own
+  std::string compression;  // --out's, where its format has one (empty: the format's default)
+  int level = -1;
   cli::ReadFlags read;
 };
 
@@ -240,7 +242,10 @@ void run(const Args& a) {
     const auto t_setup = std::chrono::steady_clock::now();
     seg.emplace(model, s, so, a.input);
     setup_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_setup).count();
-    if (!a.out.empty()) sink = open_writer(a.out, s, {}, a.out == "-" ? "text" : "");
+    WriteOptions wo;
+    wo.compression = a.compression;
+    wo.level = a.level;
+    if (!a.out.empty()) sink = open_writer(a.out, s, wo, a.out == "-" ? "text" : "");
   };
   // --score: the paper's per-window IoU and detection rate (core/eval/window_scorer.h): G =
   // pixels with foreground input events (label != 0) in the window, P = pixels of the window's
@@ -369,6 +374,11 @@ void add(CLI::App& app) {
   cmd->add_option("--out", a.out,
                   "Labelled events: .txt/.csv text (t_us x y p label), - for stdout, or any "
                   "writable event format");
+  cmd->add_option("--compression", a.compression,
+                  "--out's compression where its format has one (as `spikems convert`)")
+      ->check(CLI::IsMember({"lz4", "zstd", "deflate", "none"}));
+  cmd->add_option("--level", a.level,
+                  "--out's compression level (format default when absent: npz 1, spikems-h5 4)");
   cmd->add_option("--masks-dir", a.masks_dir, "Write a PNG mask frame per window here");
   cmd->add_option("--mask-window", a.mask_window, "Mask frame length (e.g. 10ms, 1ms, 25ms)")
       ->each([&](const std::string&) { a.mask_window_set = true; });

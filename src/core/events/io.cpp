@@ -149,7 +149,13 @@ std::unique_ptr<EventReader> open_reader(const std::string& path, const ReadOpti
 
 std::unique_ptr<EventWriter> open_writer(const std::string& path, SensorSize sensor,
                                          const WriteOptions& opt, const std::string& format) {
-  return format_for_output(path, format).open_writer(path, sensor, opt);
+  const FormatInfo& f = format_for_output(path, format);
+  if (!f.compresses && ((!opt.compression.empty() && opt.compression != "none") || opt.level >= 0))
+    fail(path, "",
+         "the " + f.name +
+             " format has no compression: drop the compression and level options (npz, "
+             "spikems-h5 and aedat4 have them)");
+  return f.open_writer(path, sensor, opt);
 }
 
 Recording read_recording(const std::string& path, const ReadOptions& opt) {

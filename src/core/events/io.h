@@ -64,7 +64,8 @@ struct FormatInfo {
       open_path;  // null when open_bytes suffices
   std::function<std::unique_ptr<EventWriter>(const std::string& path, SensorSize,
                                              const WriteOptions&)>
-      open_writer;  // null: read-only format
+      open_writer;          // null: read-only format
+  bool compresses = false;  // the writer takes WriteOptions::compression and ::level
 };
 
 const std::vector<FormatInfo>& formats();

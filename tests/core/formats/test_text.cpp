@@ -184,6 +184,61 @@ TEST(NpzEvents, RoundTripStoredAndDeflate) {
   }
 }
 
+// The writer takes a deflate level (default 1: fast; docs/formats.md), 0 = stored members;
+// formats without compression refuse the options instead of ignoring them.
+TEST(NpzEvents, DeflateLevelIsHonouredAndChecked) {
+  std::string dir = test::scratch_dir();
+  Recording r;
+  r.events = sample(20000, true);
+  auto write = [&](int level) {
+    WriteOptions o;
+    o.level = level;
+    std::string p = dir + "/lvl" + std::to_string(level) + ".npz";
+    write_recording(p, r, o);
+    EXPECT_EQ(read_events(p).label, r.events.label);
+    return p;
+  };
+  const std::string p0 = write(0), p1 = write(1), p9 = write(9), pd = write(-1);
+  auto methods = [](const std::string& p) {
+    std::vector<int> m;
+    for (const auto& e : zip_list_file(p)) m.push_back(e.method);
+    return m;
+  };
+  EXPECT_EQ(methods(p0), std::vector<int>(6, 0));
+  EXPECT_EQ(methods(p9), std::vector<int>(6, 8));
+  EXPECT_LT(std::filesystem::file_size(p9), std::filesystem::file_size(p1));
+  EXPECT_LT(std::filesystem::file_size(p1), std::filesystem::file_size(p0) / 2);
+  // The default is level 1, byte for byte (the writer is reproducible).
+  EXPECT_EQ(read_file_bytes(pd), read_file_bytes(p1));
+
+  WriteOptions bad;
+  bad.level = 10;
+  try {
+    write_recording(dir + "/bad.npz", r, bad);
+    FAIL() << "level 10 accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("deflate level must be 0..9"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.npz"));
+  for (const auto& [comp, level] : {std::pair<std::string, int>{"", 3}, {"lz4", -1}}) {
+    WriteOptions o;
+    o.compression = comp;
+    o.level = level;
+    try {
+      write_recording(dir + "/t.txt", r, o);
+      FAIL() << "text accepted compression '" << comp << "' level " << level;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("the text format has no compression"), std::string::npos)
+          << e.what();
+    }
+  }
+  WriteOptions none;
+  none.compression = "none";  // harmless: says what text does anyway
+  write_recording(dir + "/t.txt", r, none);
+  EXPECT_EQ(read_events(dir + "/t.txt").size(), r.events.size());
+}
+
 TEST(NpzEvents, FloatSecondsSignedPolarityAndBadArrays) {
   std::string dir = test::scratch_dir();
   std::map<std::string, NpyArray> a;

@@ -8,6 +8,7 @@
 
 #include "common/test_paths.h"
 #include "common/tiny_models.h"
+#include "core/events/formats/zip.h"
 #include "core/events/io.h"
 #include "core/model/model_file.h"
 #include "core/model/time_step.h"
@@ -158,6 +159,35 @@ TEST(SegmentCli, LabelsMasksBoxesAndStats) {
       << out;
   EXPECT_LE(std::stod(m[2]), std::stod(m[1]));
   EXPECT_GE(std::stod(m[4]), std::stod(m[3]));
+}
+
+// Labels written as npz (deflate level 1 by default), stored with --compression none or
+// --level 0: the same labels as the text file; a level for a text output is an error.
+TEST(SegmentCli, NpzLabelsTakeTheWritersCompressionOptions) {
+  std::string d = scratch_dir();
+  std::string model = write_pass_off_model(d), ev = write_events(d);
+  std::string base = spikems_binary() + " segment --quiet --model " + model + " --input " + ev;
+  std::string out;
+  ASSERT_EQ(run_command(base + " --out " + d + "/l.txt", &out), 0) << out;
+  const EventStream want = read_events(d + "/l.txt");
+  ASSERT_EQ(want.size(), 480u);
+  for (const auto& [args, method] : {std::pair<std::string, int>{"", 8},
+                                     {" --level 9", 8},
+                                     {" --compression none", 0},
+                                     {" --level 0", 0}}) {
+    SCOPED_TRACE(args);
+    ASSERT_EQ(run_command(base + " --out " + d + "/l.npz" + args, &out), 0) << out;
+    for (const auto& e : zip_list_file(d + "/l.npz")) EXPECT_EQ(e.method, method) << e.name;
+    const EventStream got = read_events(d + "/l.npz");
+    EXPECT_EQ(got.t, want.t);
+    EXPECT_EQ(got.label, want.label);
+  }
+  EXPECT_EQ(run_command(base + " --out " + d + "/x.txt --level 3", &out), 1);
+  EXPECT_NE(out.find("the text format has no compression"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(d + "/x.txt"));
+  EXPECT_EQ(run_command(base + " --out " + d + "/x.npz --compression zstd", &out), 1);
+  EXPECT_NE(out.find("npz supports compression 'deflate' (default) or 'none'"), std::string::npos)
+      << out;
 }
 
 // --block-steps changes when outputs are written, not what: labels, mask PNGs and boxes are

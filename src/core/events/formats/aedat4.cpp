@@ -334,6 +334,7 @@ FormatInfo aedat4_format() {
   f.open_bytes = [](std::unique_ptr<ByteSource> src, const ReadOptions&) {
     return std::unique_ptr<EventReader>(std::make_unique<Aedat4Reader>(std::move(src)));
   };
+  f.compresses = true;
   f.open_writer = open_aedat4_writer;
   return f;
 }

@@ -282,18 +282,14 @@ NpyArray read_npy(const std::string& path) {
 }
 
 namespace {
-// The magic, version, header length and header dict of `a`, padded so that the data that
-// follows starts on a 64-byte boundary.
-std::vector<uint8_t> npy_header(const NpyArray& a) {
-  if (a.fortran_order) throw Error("serialize_npy: only C-order arrays are written");
-  if (a.itemsize() == 0 || uint64_t(a.numel()) * a.itemsize() != a.data.size())
-    throw Error("serialize_npy: " + std::to_string(a.data.size()) +
-                " data bytes do not match dtype '" + a.descr + "' and the shape");
+// The magic, version, header length and header dict of a C-order array, padded so that the
+// data that follows starts on a 64-byte boundary.
+std::vector<uint8_t> npy_header(const std::string& descr, const std::vector<int64_t>& dims) {
   std::string shape = "(";
-  for (size_t k = 0; k < a.shape.size(); ++k) shape += (k ? ", " : "") + std::to_string(a.shape[k]);
-  if (a.shape.size() == 1) shape += ",";
+  for (size_t k = 0; k < dims.size(); ++k) shape += (k ? ", " : "") + std::to_string(dims[k]);
+  if (dims.size() == 1) shape += ",";
   shape += ")";
-  std::string h = "{'descr': '" + a.descr + "', 'fortran_order': False, 'shape': " + shape + ", }";
+  std::string h = "{'descr': '" + descr + "', 'fortran_order': False, 'shape': " + shape + ", }";
   // Pad with spaces so that the data starts on a 64-byte boundary; the header ends with '\n'.
   size_t pre = h.size() + 1 < 65536 - 64 ? 10 : 12;
   size_t total = pre + h.size() + 1;
@@ -309,6 +305,14 @@ std::vector<uint8_t> npy_header(const NpyArray& a) {
     store_le32(out.data() + 8, uint32_t(h.size()));
   std::memcpy(out.data() + pre, h.data(), h.size());
   return out;
+}
+
+std::vector<uint8_t> npy_header(const NpyArray& a) {
+  if (a.fortran_order) throw Error("serialize_npy: only C-order arrays are written");
+  if (a.itemsize() == 0 || uint64_t(a.numel()) * a.itemsize() != a.data.size())
+    throw Error("serialize_npy: " + std::to_string(a.data.size()) +
+                " data bytes do not match dtype '" + a.descr + "' and the shape");
+  return npy_header(a.descr, a.shape);
 }
 }  // namespace
 
@@ -380,15 +384,32 @@ std::map<std::string, NpyArray> read_npz(const std::string& path) {
 }
 
 void write_npz(const std::string& path, const std::map<std::string, NpyArray>& arrays,
-               bool compress) {
+               bool compress, int level) {
+  std::vector<std::pair<std::string, NpyView>> views;
+  for (const auto& [key, a] : arrays) {
+    if (a.fortran_order) throw Error("write_npz: only C-order arrays are written");
+    views.push_back({key, {a.descr, a.shape, a.data}});
+  }
+  write_npz_views(path, views, compress, level);
+}
+
+void write_npz_views(const std::string& path,
+                     const std::vector<std::pair<std::string, NpyView>>& arrays, bool compress,
+                     int level) {
   // Each member is its npy header followed by the array's own bytes: nothing is copied
   // before libzip reads it.
   std::vector<std::vector<uint8_t>> headers;
   headers.reserve(arrays.size());
   AtomicFile f(path);
-  ZipWriter zip(f, compress);
+  ZipWriter zip(f, compress, level);
   for (const auto& [key, a] : arrays) {
-    headers.push_back(npy_header(a));
+    NpyArray probe;  // its element size and count, to check the bytes against
+    probe.descr = a.descr;
+    probe.shape = a.shape;
+    if (probe.itemsize() == 0 || uint64_t(probe.numel()) * probe.itemsize() != a.data.size())
+      throw Error("write_npz: member '" + key + "': " + std::to_string(a.data.size()) +
+                  " data bytes do not match dtype '" + a.descr + "' and the shape");
+    headers.push_back(npy_header(a.descr, a.shape));
     zip.add(key + ".npy", {headers.back(), a.data});
   }
   zip.finish();

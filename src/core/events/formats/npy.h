@@ -13,6 +13,7 @@
 #include <cstring>
 #include <map>
 #include <memory>
+#include <span>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -72,9 +73,10 @@ class NpzFile {
   std::map<std::string, ZipEntry> entries_;
 };
 
-// Atomic; compress = deflate (np.savez_compressed), else stored (np.savez).
+// Atomic; compress = deflate (np.savez_compressed) at `level` (1 fastest .. 9 smallest), else
+// stored (np.savez).
 void write_npz(const std::string& path, const std::map<std::string, NpyArray>& arrays,
-               bool compress);
+               bool compress, int level = 6);
 
 // The descr numpy uses for a C++ element type ("<f4" for float, ...).
 template <typename T>
@@ -104,6 +106,25 @@ constexpr const char* npy_descr_of() {
   else
     static_assert(sizeof(T) == 0, "no numpy dtype for this type");
 }
+
+// An array written without copying its bytes (they must outlive the write); of(): a vector's
+// elements as a 1-D array.
+struct NpyView {
+  std::string descr;
+  std::vector<int64_t> shape;  // C order
+  std::span<const uint8_t> data;
+  template <typename T>
+  static NpyView of(const std::vector<T>& v) {
+    static_assert(!std::is_same_v<T, bool>, "std::vector<bool> has no contiguous bytes");
+    return {npy_descr_of<T>(),
+            {int64_t(v.size())},
+            {reinterpret_cast<const uint8_t*>(v.data()), v.size() * sizeof(T)}};
+  }
+};
+// The same archive from views, members in the given order.
+void write_npz_views(const std::string& path,
+                     const std::vector<std::pair<std::string, NpyView>>& arrays, bool compress,
+                     int level = 6);
 
 namespace npy_detail {
 // Element kind of a descr: 'f', 'i', 'u', 'b' (validated), or throws.

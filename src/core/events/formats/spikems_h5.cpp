@@ -346,6 +346,7 @@ FormatInfo spikems_h5_format() {
   f.open_path = [](const std::string& path, const ReadOptions& opt) {
     return open_spikems_h5_reader(path, opt);
   };
+  f.compresses = true;
   f.open_writer = [](const std::string& path, SensorSize s, const WriteOptions& opt) {
     return open_spikems_h5_writer(path, s, opt);
   };
