@@ -140,6 +140,7 @@ void Segmenter::push(const EventStream& c) {
   };
   for (size_t i = 0; i < std::min(c.size(), kAhead); ++i)
     __builtin_prefetch(&input_bits_[word_of(i)], 1);
+  labeller_.reserve(c.size());
   for (size_t i = 0; i < c.size(); ++i) {
     if (i + kAhead < c.size()) __builtin_prefetch(&input_bits_[word_of(i + kAhead)], 1);
     const uint64_t idx = events_in_ + i;
@@ -172,7 +173,7 @@ void Segmenter::push(const EventStream& c) {
     input_count_ += (word & bit) == 0;
     word |= bit;
     input_words_[n >> 12] |= uint64_t(1) << ((n >> 6) & 63);
-    labeller_.push(c[i], step);
+    labeller_.push_reserved(t, c.x[i], c.y[i], c.p[i], step);
     if (masks_) {
       mask_events_.push_back(ny * width + nx);
       ++step_events_;

@@ -35,6 +35,58 @@ TEST(EventLabeller, WindowRuleIsExact) {
   }
 }
 
+// Many steps of random events and output spikes, pushed in uneven batches (the queue grows,
+// is compacted, and is emptied): every event comes out once, in order, with the label the
+// window rule gives, computed here from the whole spike history.
+TEST(EventLabeller, LongRandomStreamMatchesTheRuleFromTheHistory) {
+  const int W = 9, H = 7, C = 2, window = 3, shift = 1;  // a 2x downsampled 18x14 sensor
+  EventLabeller lab(SensorSize{W, H}, H, W, C, window, shift);
+  uint64_t rng = 12345;
+  auto next = [&](uint32_t n) {
+    rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+    return uint32_t(rng >> 33) % n;
+  };
+  std::vector<std::vector<uint32_t>> spikes_at;  // per step: output neurons
+  std::vector<std::pair<Event, int64_t>> pushed;
+  EventStream out;
+  out.add_zero_labels();
+  int64_t t = 0;
+  const int steps = 400;
+  for (int s = 0; s < steps + window + 1; ++s) {
+    // A busy stretch (thousands of events a step: growth) and idle ones (the queue empties).
+    const uint32_t n = s >= steps ? 0 : (s / 50) % 2 ? next(3000) : next(4);
+    lab.reserve(n);
+    for (uint32_t i = 0; i < n; ++i) {
+      Event e{t++, uint16_t(next(2 * W)), uint16_t(next(2 * H)), uint8_t(next(2)), 0};
+      lab.push_reserved(e.t, e.x, e.y, e.p, s);
+      pushed.push_back({e, s});
+    }
+    std::vector<uint32_t> sp;
+    for (uint32_t k = next(12); k > 0; --k) sp.push_back(next(uint32_t(W * H * C)));
+    spikes_at.push_back(sp);
+    lab.on_step(s, sp, out);
+  }
+  EXPECT_EQ(lab.pending(), 0u);
+  ASSERT_EQ(out.size(), pushed.size());
+  uint64_t fg = 0;
+  for (size_t i = 0; i < pushed.size(); ++i) {
+    const auto& [e, s] = pushed[i];
+    const uint32_t pix = lab.out_pixel(e.x >> shift, e.y >> shift);
+    bool want = false;
+    for (int64_t q = s; q <= s + window; ++q)
+      for (uint32_t nrn : spikes_at[size_t(q)]) want |= nrn / C == pix;
+    fg += want;
+    ASSERT_EQ(out.t[i], e.t) << i;
+    ASSERT_EQ(out.x[i], e.x) << i;
+    ASSERT_EQ(out.y[i], e.y) << i;
+    ASSERT_EQ(out.p[i], e.p) << i;
+    ASSERT_EQ(out.label[i], want ? 1 : 0) << "event " << i << " of step " << s;
+  }
+  EXPECT_EQ(lab.foreground_count(), fg);
+  EXPECT_GT(fg, 100u);
+  EXPECT_LT(fg, pushed.size());
+}
+
 TEST(EventLabeller, PixelsBeyondASmallerOutputTakeTheNearestOutputPixel) {
   EventLabeller lab(SensorSize{6, 5}, 3, 4, 1, 0);
   EXPECT_EQ(lab.out_pixel(5, 4), uint32_t(2 * 4 + 3));
