@@ -151,7 +151,9 @@ void run(const ConvertArgs& a) {
   }
   bar.finish();
   spikems::Recording extras;
-  reader->read_extras(extras);
+  // Only a format that keeps them gets the masks, intrinsics and poses: reading a simulated
+  // recording's masks was half of converting it to EVT 3.0.
+  if (spikems::format_for_output(a.out, a.out_format).writes_extras) reader->read_extras(extras);
   // Keep the mask frames and poses of the selected time range.
   auto in_range = [&](int64_t t) { return t >= lo && t < hi; };
   std::erase_if(extras.masks, [&](const spikems::MaskFrame& m) { return !in_range(m.t_us); });

@@ -209,6 +209,7 @@ void add(CLI::App& app) {
   cmd->callback([args] {
     spikems::install_interrupt_flag();
     spikems::ReadOptions ro;
+    ro.mask_planes = false;  // the frames' count and times, not their pixels
     ro.sort = args->read.sort;
     ro.time_unit = args->read.time_unit;
     ro.format = args->read.format;

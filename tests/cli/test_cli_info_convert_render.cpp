@@ -392,6 +392,13 @@ TEST(CliInfoConvertRender, RenderOutlinesTheMaskFrameOfAnEvimoFile) {
       EXPECT_EQ(h["events"], want_events) << from;
       EXPECT_EQ(h["mask_frames"], want_masks) << from;
       EXPECT_DOUBLE_EQ(h["intrinsics"]["cx"].get<double>(), 4.0);
+      // Into a format that holds no masks: the events, and no mask frame read or written.
+      ASSERT_EQ(
+          run_command(spikems_binary() + " convert " + q(h5) + " " + q(dir + "/seq.txt"), &out), 0)
+          << out;
+      EXPECT_NE(out.find(std::to_string(want_events) + " events written"), std::string::npos)
+          << out;
+      EXPECT_NE(out.find(", 0 mask frames"), std::string::npos) << out;
     }
   }
 

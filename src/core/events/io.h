@@ -21,6 +21,9 @@ struct ReadOptions {
   std::string time_unit = "auto";  // text formats: "auto", "s", "us"
   SensorSize sensor;               // override or supply the sensor size where a file lacks it
   std::string format;              // force a format by name (empty: detect)
+  // read_extras(): false gives the mask frames' times and sizes without their pixels (ids
+  // empty), so describing a long recording does not load every mask into memory.
+  bool mask_planes = true;
 };
 
 class EventReader {
@@ -64,8 +67,9 @@ struct FormatInfo {
       open_path;  // null when open_bytes suffices
   std::function<std::unique_ptr<EventWriter>(const std::string& path, SensorSize,
                                              const WriteOptions&)>
-      open_writer;          // null: read-only format
-  bool compresses = false;  // the writer takes WriteOptions::compression and ::level
+      open_writer;             // null: read-only format
+  bool compresses = false;     // the writer takes WriteOptions::compression and ::level
+  bool writes_extras = false;  // the writer keeps mask frames, intrinsics, poses, metadata
 };
 
 const std::vector<FormatInfo>& formats();

@@ -96,6 +96,27 @@ TEST(SpikemsH5, RoundTripEverything) {
   EXPECT_EQ(files, 2);  // no temporaries left
 }
 
+// Without mask planes (`spikems info`): every frame's time and size, no pixels; the rest as
+// with them.
+TEST(SpikemsH5, MaskTimesWithoutTheirPlanes) {
+  std::string p = test::scratch_dir() + "/m.h5";
+  const Recording r = sample_recording(1000, true);
+  write_recording(p, r, {}, "spikems-h5");
+  ReadOptions o;
+  o.mask_planes = false;
+  const Recording back = read_recording(p, o);
+  ASSERT_EQ(back.masks.size(), r.masks.size());
+  for (size_t i = 0; i < r.masks.size(); ++i) {
+    EXPECT_EQ(back.masks[i].t_us, r.masks[i].t_us);
+    EXPECT_EQ(back.masks[i].width, 346);
+    EXPECT_EQ(back.masks[i].height, 260);
+    EXPECT_TRUE(back.masks[i].ids.empty());
+  }
+  EXPECT_EQ(back.events.label, r.events.label);
+  EXPECT_EQ(back.poses.size(), r.poses.size());
+  EXPECT_EQ(back.moving_ids, r.moving_ids);
+}
+
 TEST(SpikemsH5, StreamsInChunksAndLabelsMayStartLate) {
   std::string p = test::scratch_dir() + "/s.h5";
   Recording r = sample_recording(1000, false);

@@ -117,7 +117,8 @@ std::unique_ptr<EventReader> open_evimo1_npz(const std::string& path, const Read
 // The txt folder: events stream from events.txt; masks are decoded in read_extras().
 class EvimoTxtReader final : public EventReader {
  public:
-  EvimoTxtReader(const std::string& dir, const ReadOptions& opt) : dir_(dir) {
+  EvimoTxtReader(const std::string& dir, const ReadOptions& opt)
+      : dir_(dir), mask_planes_(opt.mask_planes) {
     std::string meta_path = (fs::path(dir) / "meta.txt").string();
     frames_ = evimo_frames_from_meta(parse_python_literal(read_text_file(meta_path), meta_path),
                                      meta_path);
@@ -146,6 +147,14 @@ class EvimoTxtReader final : public EventReader {
     for (const auto& f : frames_) {
       std::string png = png_path(f);
       if (png.empty()) continue;
+      if (!mask_planes_) {  // its time and the sensor's size: no PNG decoded
+        MaskFrame m;
+        m.t_us = f.t_us;
+        m.width = sensor_.width;
+        m.height = sensor_.height;
+        rec.masks.push_back(std::move(m));
+        continue;
+      }
       Image16 img = read_png16(png);
       if (img.channels < 3) fail(png, "", "EV-IMO depth/mask PNG must have 3 channels");
       MaskFrame m;
@@ -180,6 +189,7 @@ class EvimoTxtReader final : public EventReader {
     return "";
   }
   std::string dir_;
+  bool mask_planes_;
   std::vector<EvimoFrameInfo> frames_;
   SensorSize sensor_;
   std::unique_ptr<EventReader> text_;

@@ -158,7 +158,8 @@ class SpikemsH5Writer final : public EventWriter {
 
 class SpikemsH5Reader final : public EventReader {
  public:
-  SpikemsH5Reader(const std::string& path, const ReadOptions& opt) : path_(path) {
+  SpikemsH5Reader(const std::string& path, const ReadOptions& opt)
+      : path_(path), mask_planes_(opt.mask_planes) {
     file_ = h5_open_read(path);
     const hid_t f = file_.get();
     std::string tag;
@@ -226,15 +227,25 @@ class SpikemsH5Reader final : public EventReader {
         fail(path_, "dataset 'masks/ids'", "expected shape (F, H, W) matching masks/t");
       std::vector<int64_t> ts(F);
       h5_read_all(t.get(), H5T_NATIVE_INT64, ts.data(), path_, "masks/t");
-      const uint64_t plane = shape[1] * shape[2];
-      std::vector<uint16_t> all(F * plane);
-      h5_read_all(ids.get(), H5T_NATIVE_UINT16, all.data(), path_, "masks/ids");
+      // Frame by frame, straight into each frame (one chunk each): no second copy of them all.
+      H5Handle fspace(H5Dget_space(ids.get()));
+      const hsize_t count[3] = {1, shape[1], shape[2]}, plane = shape[1] * shape[2];
+      H5Handle mspace(H5Screate_simple(3, count, nullptr));
       for (uint64_t i = 0; i < F; ++i) {
         MaskFrame m;
         m.t_us = ts[i];
         m.height = int(shape[1]);
         m.width = int(shape[2]);
-        m.ids.assign(all.begin() + int64_t(i * plane), all.begin() + int64_t((i + 1) * plane));
+        if (mask_planes_) {
+          m.ids.resize(plane);
+          const hsize_t start[3] = {i, 0, 0};
+          if (H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start, nullptr, count, nullptr) <
+                  0 ||
+              H5Dread(ids.get(), H5T_NATIVE_UINT16, mspace.get(), fspace.get(), H5P_DEFAULT,
+                      m.ids.data()) < 0)
+            fail(path_, "dataset 'masks/ids' frame " + std::to_string(i),
+                 "HDF5 read failed (corrupt chunk, missing filter or wrong type)");
+        }
         rec.masks.push_back(std::move(m));
       }
     }
@@ -294,6 +305,7 @@ class SpikemsH5Reader final : public EventReader {
 
  private:
   std::string path_;
+  bool mask_planes_;
   H5Handle file_, t_, x_, y_, p_, label_;
   SensorSize sensor_;
   uint64_t n_ = 0, pos_ = 0;
@@ -347,6 +359,7 @@ FormatInfo spikems_h5_format() {
     return open_spikems_h5_reader(path, opt);
   };
   f.compresses = true;
+  f.writes_extras = true;
   f.open_writer = [](const std::string& path, SensorSize s, const WriteOptions& opt) {
     return open_spikems_h5_writer(path, s, opt);
   };
