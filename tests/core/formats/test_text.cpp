@@ -239,6 +239,53 @@ TEST(NpzEvents, DeflateLevelIsHonouredAndChecked) {
   EXPECT_EQ(read_events(dir + "/t.txt").size(), r.events.size());
 }
 
+// The writer streams each column through a temporary file of its own: chunks with and
+// without labels (the events before the first labelled chunk, and those of unlabelled chunks
+// after it, get 0), the same archive byte for byte as the whole arrays written at once, and
+// nothing left beside the output.
+TEST(NpzEvents, StreamedColumnsEqualTheWholeArrays) {
+  std::string dir = test::scratch_dir();
+  const EventStream all = sample(30000, true);
+  std::vector<uint16_t> want_labels(all.size(), 0);
+  {
+    auto w = open_writer(dir + "/s.npz", all.sensor);
+    size_t at = 0;
+    for (size_t n : {7000, 8000, 0, 9000, 6000}) {
+      EventStream c;
+      c.sensor = all.sensor;
+      c.append(all, at, at + n);
+      const bool labelled = at >= 7000 && at < 15000;  // only the second chunk
+      if (!labelled) c.label.clear();
+      if (labelled)
+        std::copy(all.label.begin() + std::ptrdiff_t(at),
+                  all.label.begin() + std::ptrdiff_t(at + n),
+                  want_labels.begin() + std::ptrdiff_t(at));
+      w->write(c);
+      at += n;
+    }
+    w->close();
+  }
+  const EventStream back = read_events(dir + "/s.npz");
+  EXPECT_EQ(back.t, all.t);
+  EXPECT_EQ(back.x, all.x);
+  EXPECT_EQ(back.p, all.p);
+  EXPECT_EQ(back.label, want_labels);
+  EXPECT_EQ(back.sensor, all.sensor);
+  const std::vector<int32_t> sensor{all.sensor.width, all.sensor.height};
+  write_npz_views(dir + "/whole.npz",
+                  {{"label", NpyView::of(want_labels)},
+                   {"p", NpyView::of(all.p)},
+                   {"sensor", NpyView::of(sensor)},
+                   {"t", NpyView::of(all.t)},
+                   {"x", NpyView::of(all.x)},
+                   {"y", NpyView::of(all.y)}},
+                  true, 1);
+  EXPECT_EQ(read_file_bytes(dir + "/s.npz"), read_file_bytes(dir + "/whole.npz"));
+  int files = 0;
+  for (auto& e : std::filesystem::directory_iterator(dir)) files += e.is_regular_file();
+  EXPECT_EQ(files, 2);
+}
+
 TEST(NpzEvents, FloatSecondsSignedPolarityAndBadArrays) {
   std::string dir = test::scratch_dir();
   std::map<std::string, NpyArray> a;

@@ -281,9 +281,6 @@ NpyArray read_npy(const std::string& path) {
   return parse_npy(bytes.data(), bytes.size(), path);
 }
 
-namespace {
-// The magic, version, header length and header dict of a C-order array, padded so that the
-// data that follows starts on a 64-byte boundary.
 std::vector<uint8_t> npy_header(const std::string& descr, const std::vector<int64_t>& dims) {
   std::string shape = "(";
   for (size_t k = 0; k < dims.size(); ++k) shape += (k ? ", " : "") + std::to_string(dims[k]);
@@ -307,12 +304,13 @@ std::vector<uint8_t> npy_header(const std::string& descr, const std::vector<int6
   return out;
 }
 
+namespace {
 std::vector<uint8_t> npy_header(const NpyArray& a) {
   if (a.fortran_order) throw Error("serialize_npy: only C-order arrays are written");
   if (a.itemsize() == 0 || uint64_t(a.numel()) * a.itemsize() != a.data.size())
     throw Error("serialize_npy: " + std::to_string(a.data.size()) +
                 " data bytes do not match dtype '" + a.descr + "' and the shape");
-  return npy_header(a.descr, a.shape);
+  return spikems::npy_header(a.descr, a.shape);
 }
 }  // namespace
 

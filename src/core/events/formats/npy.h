@@ -44,6 +44,10 @@ struct NpyArray {
 NpyArray parse_npy(const uint8_t* data, size_t n, const std::string& source);
 NpyArray read_npy(const std::string& path);
 std::vector<uint8_t> serialize_npy(const NpyArray& a);
+// The magic, version, header length and header dict of a C-order array of that dtype and shape,
+// padded so that the data that follows starts on a 64-byte boundary (128 bytes for any 1-D
+// array).
+std::vector<uint8_t> npy_header(const std::string& descr, const std::vector<int64_t>& shape);
 void write_npy(const std::string& path, const NpyArray& a);  // atomic
 
 // Keys are the member names without ".npy".

@@ -5,13 +5,24 @@
 //   label  uint16 (N,) optional object id
 //   sensor int32 (2,)  optional [width, height]
 // The arrays are loaded whole (npz members are not seekable when deflated), then handed out in
-// chunks; the writer gathers the chunks and writes the archive on close.
+// chunks. The writer streams each column into a temporary file of its own and assembles the
+// archive from them on close: its memory does not grow with the recording.
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <filesystem>
+#include <optional>
 
 #include "core/events/formats/memory_reader.h"
 #include "core/events/formats/npy.h"
+#include "core/events/formats/zip.h"
+#include "core/util/atomic_file.h"
 #include "core/util/error.h"
 
 namespace spikems {
@@ -110,6 +121,64 @@ EventStream read_npz_events(const std::string& path, const ReadOptions& opt) {
   return ev;
 }
 
+// One column of the archive being written: an unnamed temporary file beside the output
+// (O_TMPFILE: it vanishes with the process, whatever happens) holding the column's npy member,
+// its 128 header bytes reserved and written once the length is known. So the writer's memory
+// stays bounded however long the recording, and the members stream through libzip at close.
+class ColumnFile {
+ public:
+  ColumnFile(const std::string& target, std::string descr)
+      : target_(target), descr_(std::move(descr)) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::path(target).parent_path();
+    int fd = ::open(dir.empty() ? "." : dir.c_str(), O_TMPFILE | O_RDWR, 0600);
+    if (fd < 0 && (errno == ENOENT || errno == ENOTDIR || errno == EACCES || errno == EROFS))
+      fail(target, "",
+           std::string("cannot write there: ") + std::strerror(errno));  // now, not at the end
+    f_ = fd >= 0 ? ::fdopen(fd, "w+b") : std::tmpfile();  // tmpfile: no O_TMPFILE there
+    if (!f_) {
+      if (fd >= 0) ::close(fd);
+      fail(target, "",
+           std::string("cannot create a temporary column file: ") + std::strerror(errno));
+    }
+    std::setvbuf(f_, nullptr, _IOFBF, size_t(1) << 20);
+    const uint8_t zeros[kHeader] = {};
+    put(zeros, kHeader);
+  }
+  ~ColumnFile() {
+    if (f_) std::fclose(f_);
+  }
+  ColumnFile(const ColumnFile&) = delete;
+  ColumnFile& operator=(const ColumnFile&) = delete;
+  void put(const void* data, size_t n) {
+    if (n && std::fwrite(data, 1, n, f_) != n) failed();
+  }
+  // Writes the header of n elements and hands the file over, positioned at its start (where
+  // libzip's file source begins reading).
+  std::FILE* finish(int64_t n) {
+    const std::vector<uint8_t> h = npy_header(descr_, {n});
+    if (h.size() != kHeader) fail(target_, "", "internal: npy header is not 128 bytes");
+    if (std::fflush(f_) != 0 || std::fseek(f_, 0, SEEK_SET) != 0) failed();
+    put(h.data(), h.size());
+    if (std::fflush(f_) != 0 || std::fseek(f_, 0, SEEK_SET) != 0) failed();
+    // The member's attributes come from the file's mode: rw-rw-rw- as for a member from a
+    // buffer, so that the same events give the same bytes as write_npz().
+    ::fchmod(::fileno(f_), 0666);
+    std::FILE* f = f_;
+    f_ = nullptr;
+    return f;
+  }
+
+ private:
+  [[noreturn]] void failed() const {
+    fail(target_, "",
+         std::string("writing a temporary column file failed: ") + std::strerror(errno));
+  }
+  static constexpr size_t kHeader = 128;
+  std::string target_, descr_;
+  std::FILE* f_ = nullptr;
+};
+
 class NpzEventWriter final : public EventWriter {
  public:
   // Deflate level 1 by default, not zlib's 6 (np.savez_compressed's): on labelled events
@@ -119,39 +188,66 @@ class NpzEventWriter final : public EventWriter {
   NpzEventWriter(std::string path, SensorSize sensor, const WriteOptions& opt)
       : path_(std::move(path)),
         compress_(opt.compression != "none" && opt.compression != "stored" && opt.level != 0),
-        level_(opt.level < 0 ? kDefaultLevel : opt.level) {
+        level_(opt.level < 0 ? kDefaultLevel : opt.level),
+        sensor_(sensor) {
     if (!opt.compression.empty() && opt.compression != "none" && opt.compression != "stored" &&
         opt.compression != "deflate")
       fail(path_, "",
            "npz supports compression 'deflate' (default) or 'none', not '" + opt.compression + "'");
     if (opt.level > 9)
       fail(path_, "", "deflate level must be 0..9 (0 = stored), not " + std::to_string(opt.level));
-    ev_.sensor = sensor;
+    t_.emplace(path_, npy_descr_of<int64_t>());
+    x_.emplace(path_, npy_descr_of<uint16_t>());
+    y_.emplace(path_, npy_descr_of<uint16_t>());
+    p_.emplace(path_, npy_descr_of<uint8_t>());
   }
   void write(const EventStream& chunk) override {
-    if (!ev_.sensor.known()) ev_.sensor = chunk.sensor;
-    if (chunk.has_labels() && !ev_.has_labels()) ev_.add_zero_labels();
-    ev_.append(chunk);
+    if (!sensor_.known()) sensor_ = chunk.sensor;
+    const size_t n = chunk.size();
+    if (chunk.has_labels() && !label_) {  // labels from here on: the events before get 0
+      label_.emplace(path_, npy_descr_of<uint16_t>());
+      put_zero_labels(n_);
+    }
+    t_->put(chunk.t.data(), n * sizeof(int64_t));
+    x_->put(chunk.x.data(), n * sizeof(uint16_t));
+    y_->put(chunk.y.data(), n * sizeof(uint16_t));
+    p_->put(chunk.p.data(), n);
+    if (label_) {
+      if (chunk.has_labels())
+        label_->put(chunk.label.data(), n * sizeof(uint16_t));
+      else
+        put_zero_labels(n);
+    }
+    n_ += n;
   }
   void close() override {
-    // Members in name order, as np.savez of a dict and the writer of a map wrote them; the
-    // columns are written where they are (no copy of a recording's arrays).
-    const std::vector<int32_t> sensor{ev_.sensor.width, ev_.sensor.height};
-    std::vector<std::pair<std::string, NpyView>> a;
-    if (ev_.has_labels()) a.emplace_back("label", NpyView::of(ev_.label));
-    a.emplace_back("p", NpyView::of(ev_.p));
-    if (ev_.sensor.known()) a.emplace_back("sensor", NpyView::of(sensor));
-    a.emplace_back("t", NpyView::of(ev_.t));
-    a.emplace_back("x", NpyView::of(ev_.x));
-    a.emplace_back("y", NpyView::of(ev_.y));
-    write_npz_views(path_, a, compress_, level_);
+    // Members in name order, as np.savez of a dict and write_npz() of a map write them.
+    AtomicFile f(path_);
+    ZipWriter zip(f, compress_, level_);
+    if (label_) zip.add_file("label.npy", label_->finish(int64_t(n_)));
+    zip.add_file("p.npy", p_->finish(int64_t(n_)));
+    const std::vector<int32_t> sensor{sensor_.width, sensor_.height};
+    const std::vector<uint8_t> sh = npy_header(npy_descr_of<int32_t>(), {2});
+    if (sensor_.known())
+      zip.add("sensor.npy", {sh, {reinterpret_cast<const uint8_t*>(sensor.data()), 8}});
+    zip.add_file("t.npy", t_->finish(int64_t(n_)));
+    zip.add_file("x.npy", x_->finish(int64_t(n_)));
+    zip.add_file("y.npy", y_->finish(int64_t(n_)));
+    zip.finish();
+    f.commit();
   }
 
  private:
+  void put_zero_labels(size_t n) {
+    static const uint16_t zeros[4096] = {};
+    for (size_t k = 0; k < n; k += 4096) label_->put(zeros, std::min<size_t>(4096, n - k) * 2);
+  }
   std::string path_;
   bool compress_;
   int level_;
-  EventStream ev_;
+  SensorSize sensor_;
+  uint64_t n_ = 0;
+  std::optional<ColumnFile> t_, x_, y_, p_, label_;
 };
 
 }  // namespace

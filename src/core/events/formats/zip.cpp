@@ -206,6 +206,10 @@ void ZipWriter::add(const std::string& name, const std::vector<std::span<const u
                                                         frags.size(), 0, &ze);
   if (!src) fail(out_.target(), "", "ZIP member '" + name + "': " + zip_error_text(&ze));
   zip_error_fini(&ze);
+  set_member(name, src);
+}
+
+void ZipWriter::set_member(const std::string& name, zip_source* src) {
   const zip_int64_t i = zip_file_add(za_, name.c_str(), src, 0);
   if (i < 0) {
     zip_source_free(src);
@@ -217,6 +221,19 @@ void ZipWriter::add(const std::string& name, const std::vector<std::span<const u
       zip_file_set_dostime(za_, idx, 0, 0x0021, 0) != 0)  // 00:00, 1980-01-01
     fail(out_.target(), "", "ZIP member '" + name + "': " + zip_strerror(za_));
   ++count_;
+}
+
+void ZipWriter::add_file(const std::string& name, std::FILE* f) {
+  if (finished_) {
+    std::fclose(f);
+    throw Error("ZipWriter::add_file after finish");
+  }
+  zip_source_t* src = zip_source_filep(za_, f, 0, -1);  // owns f from here on, if made
+  if (!src) {
+    std::fclose(f);
+    fail(out_.target(), "", "ZIP member '" + name + "': " + zip_strerror(za_));
+  }
+  set_member(name, src);
 }
 
 void ZipWriter::finish() {

@@ -8,13 +8,15 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <mutex>
 #include <span>
 #include <string>
 #include <vector>
 
-struct zip;  // libzip's zip_t
+struct zip;         // libzip's zip_t
+struct zip_source;  // libzip's zip_source_t
 
 namespace spikems {
 
@@ -71,9 +73,14 @@ class ZipWriter {
   // One member made of `pieces` in order. Not copied: they must stay alive until finish().
   void add(const std::string& name, const std::vector<std::span<const uint8_t>>& pieces);
   void add(const std::string& name, const uint8_t* data, size_t n) { add(name, {{data, n}}); }
+  // One member: the content of an open file from its current position, read during finish(),
+  // so that a member larger than memory streams through. The writer owns and closes `f`.
+  // libzip records the file's mode in the member's attributes (a buffer's are rw-rw-rw-).
+  void add_file(const std::string& name, std::FILE* f);
   void finish();  // call once, before out.commit()
 
  private:
+  void set_member(const std::string& name, zip_source* src);  // adds src, its method and date
   AtomicFile& out_;
   bool deflate_;
   int level_;
