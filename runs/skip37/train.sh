@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Thirty-seventh session (runs/skip37/README.md): the shipped models without the skip from
+# layer 1 into the output layer. Two thirds of the output layer's drive were layer 1's spikes
+# through that skip (docs/performance.md, "Where a step's time goes"); without it the output
+# layer takes only the decoder's spikes. Each run starts from the shipped model's weights before
+# calibration with the skip's weight rows removed (drop_skip.py), then its own recipe:
+#   default: runs/drop29/train.sh control at 10 ms steps, 400 steps, two threads
+#   fast:    the half-resolution student's recipe (runs/ceil35/half.sh teacher with the
+#            thirty-sixth session's half-resolution teacher), 1,200 steps, two threads
+# Usage: runs/skip37/train.sh default|fast [MORE ARGS]
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+SAME=(--set 'model.srm_onset="same_step"' --set sample.step_ms=10 --set run.threads=2)
+case "${1:?default or fast}" in
+  default)
+    python3 runs/skip37/drop_skip.py runs/onset33/same10/control/best.safetensors \
+      runs/skip37/init-noskip.safetensors 11
+    INIT=runs/skip37/init-noskip.safetensors STEPS=400 ROOT=runs/skip37 TIME_LIMIT=40min \
+      exec runs/drop29/train.sh control "${SAME[@]}" "${@:2}" ;;
+  fast)
+    python3 runs/skip37/drop_skip.py runs/half36/student-t2500/control/best.safetensors \
+      runs/skip37/init-fast-noskip.safetensors 11
+    INIT=runs/skip37/init-fast-noskip.safetensors STEPS=1200 ROOT=runs/skip37/fast \
+      TIME_LIMIT=40min exec runs/drop29/train.sh control "${SAME[@]}" \
+      --set 'data.train=[{path="data/mod2-train-ds2",split="train",weight=0.2},{path="data/mod3-train-ds2",split="all",weight=0.8}]' \
+      --set 'data.val=[{path="data/mod2-val-ds2",split="all"}]' \
+      --set 'data.val_static=[{path="data/posterflat-sim601-ds2"}]' \
+      --set 'loss.teacher="runs/half36/teacher-half-2500/best.safetensors"' "${@:2}" ;;
+  *) echo "unknown run $1 (default or fast)" >&2; exit 1 ;;
+esac
