@@ -7,16 +7,23 @@
 #   default: runs/drop29/train.sh control at 10 ms steps, 400 steps, two threads
 #   fast:    the half-resolution student's recipe (runs/ceil35/half.sh teacher with the
 #            thirty-sixth session's half-resolution teacher), 1,200 steps, two threads
-# Usage: runs/skip37/train.sh default|fast [MORE ARGS]
+#   default5: the same for the thirty-third session's 5 ms default (an experiment)
+# Usage: runs/skip37/train.sh default|default5|fast [MORE ARGS]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 SAME=(--set 'model.srm_onset="same_step"' --set sample.step_ms=10 --set run.threads=2)
-case "${1:?default or fast}" in
+case "${1:?default, default5 or fast}" in
   default)
     python3 runs/skip37/drop_skip.py runs/onset33/same10/control/best.safetensors \
       runs/skip37/init-noskip.safetensors 11
     INIT=runs/skip37/init-noskip.safetensors STEPS=400 ROOT=runs/skip37 TIME_LIMIT=40min \
       exec runs/drop29/train.sh control "${SAME[@]}" "${@:2}" ;;
+  default5)  # the thirty-third session's 5 ms default, the same way (an experiment: not shipped)
+    python3 runs/skip37/drop_skip.py runs/onset33/same5/control/best.safetensors \
+      runs/skip37/init-noskip5.safetensors 11
+    INIT=runs/skip37/init-noskip5.safetensors STEPS=400 ROOT=runs/skip37/ms5 TIME_LIMIT=40min \
+      exec runs/drop29/train.sh control --set 'model.srm_onset="same_step"' --set sample.step_ms=5 \
+      --set run.threads=2 "${@:2}" ;;
   fast)
     python3 runs/skip37/drop_skip.py runs/half36/student-t2500/control/best.safetensors \
       runs/skip37/init-fast-noskip.safetensors 11
@@ -26,5 +33,5 @@ case "${1:?default or fast}" in
       --set 'data.val=[{path="data/mod2-val-ds2",split="all"}]' \
       --set 'data.val_static=[{path="data/posterflat-sim601-ds2"}]' \
       --set 'loss.teacher="runs/half36/teacher-half-2500/best.safetensors"' "${@:2}" ;;
-  *) echo "unknown run $1 (default or fast)" >&2; exit 1 ;;
+  *) echo "unknown run $1 (default, default5 or fast)" >&2; exit 1 ;;
 esac
