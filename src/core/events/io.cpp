@@ -150,11 +150,15 @@ std::unique_ptr<EventReader> open_reader(const std::string& path, const ReadOpti
 std::unique_ptr<EventWriter> open_writer(const std::string& path, SensorSize sensor,
                                          const WriteOptions& opt, const std::string& format) {
   const FormatInfo& f = format_for_output(path, format);
-  if (!f.compresses && ((!opt.compression.empty() && opt.compression != "none") || opt.level >= 0))
+  if (!f.compresses &&
+      ((!opt.compression.empty() && opt.compression != "none") || opt.level >= 0)) {
+    std::string have;
+    for (const auto& g : formats())
+      if (g.compresses) have += (have.empty() ? "" : ", ") + g.name;
     fail(path, "",
-         "the " + f.name +
-             " format has no compression: drop the compression and level options (npz, "
-             "spikems-h5 and aedat4 have them)");
+         "the " + f.name + " format has no compression: drop the compression and level options (" +
+             have + " have them)");
+  }
   return f.open_writer(path, sensor, opt);
 }
 

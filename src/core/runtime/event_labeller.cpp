@@ -56,7 +56,7 @@ void EventLabeller::on_step(int64_t step, const std::vector<uint32_t>& spikes, E
     std::memcpy(out.x.data() + o, qx_.data() + head_, k * sizeof(uint16_t));
     std::memcpy(out.y.data() + o, qy_.data() + head_, k * sizeof(uint16_t));
     std::memcpy(out.p.data() + o, qp_.data() + head_, k);
-    uint16_t* __restrict ol = out.label.data() + o - head_;
+    uint16_t* __restrict ol = out.label.data() + o;
     // The events decided now sit at random pixels of a table larger than the cache: their
     // entries are requested a few events ahead so that the misses overlap.
     constexpr size_t kAhead = 32;
@@ -72,7 +72,7 @@ void EventLabeller::on_step(int64_t step, const std::vector<uint32_t>& spikes, E
         if (i + kAhead < end) __builtin_prefetch(&last[pix[i + kAhead]]);
         const bool f = last[pix[i]] >= s;
         fg += f;
-        ol[i] = uint16_t(f);
+        ol[i - head_] = uint16_t(f);
       }
       step_counts_.pop_front();
     }

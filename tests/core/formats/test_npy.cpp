@@ -319,27 +319,6 @@ TEST(Npz, WriterIsReproducibleAndWritesEmptyArchives) {
   EXPECT_EQ(files, 3);
 }
 
-// Views write the bytes where they are: the same archive as the arrays copied into a map
-// (members in the same order); bytes that do not match the dtype and shape are refused.
-TEST(Npz, ViewsWriteTheSameArchiveAsArrays) {
-  std::string dir = test::scratch_dir();
-  const std::vector<int64_t> t{1, 5, 9, 12};
-  const std::vector<uint16_t> x{3, 4, 5, 6};
-  for (bool compress : {false, true}) {
-    write_npz(dir + "/map.npz", {{"t", NpyArray::from(t, {4})}, {"x", NpyArray::from(x, {2, 2})}},
-              compress, 1);
-    NpyView xv = NpyView::of(x);
-    xv.shape = {2, 2};
-    write_npz_views(dir + "/views.npz", {{"t", NpyView::of(t)}, {"x", xv}}, compress, 1);
-    EXPECT_EQ(read_file_bytes(dir + "/views.npz"), read_file_bytes(dir + "/map.npz"));
-    EXPECT_EQ(read_npz(dir + "/views.npz")["x"].shape, (std::vector<int64_t>{2, 2}));
-  }
-  NpyView bad = NpyView::of(x);
-  bad.shape = {5};
-  EXPECT_THROW(write_npz_views(dir + "/bad.npz", {{"x", bad}}, true), Error);
-  EXPECT_FALSE(std::filesystem::exists(dir + "/bad.npz"));
-}
-
 // A ZIP64 archive as numpy writes for large arrays: 0xFFFFFFFF in the fixed size and offset
 // fields, the real values in ZIP64 extra fields, and ZIP64 end records.
 TEST(Npz, Zip64RecordsAndExtraFields) {

@@ -272,14 +272,15 @@ TEST(NpzEvents, StreamedColumnsEqualTheWholeArrays) {
   EXPECT_EQ(back.label, want_labels);
   EXPECT_EQ(back.sensor, all.sensor);
   const std::vector<int32_t> sensor{all.sensor.width, all.sensor.height};
-  write_npz_views(dir + "/whole.npz",
-                  {{"label", NpyView::of(want_labels)},
-                   {"p", NpyView::of(all.p)},
-                   {"sensor", NpyView::of(sensor)},
-                   {"t", NpyView::of(all.t)},
-                   {"x", NpyView::of(all.x)},
-                   {"y", NpyView::of(all.y)}},
-                  true, 1);
+  const int64_t n = int64_t(all.size());
+  write_npz(dir + "/whole.npz",
+            {{"label", NpyArray::from(want_labels, {n})},
+             {"p", NpyArray::from(all.p, {n})},
+             {"sensor", NpyArray::from(sensor, {2})},
+             {"t", NpyArray::from(all.t, {n})},
+             {"x", NpyArray::from(all.x, {n})},
+             {"y", NpyArray::from(all.y, {n})}},
+            true, 1);
   EXPECT_EQ(read_file_bytes(dir + "/s.npz"), read_file_bytes(dir + "/whole.npz"));
   int files = 0;
   for (auto& e : std::filesystem::directory_iterator(dir)) files += e.is_regular_file();

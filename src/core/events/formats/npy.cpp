@@ -383,17 +383,6 @@ std::map<std::string, NpyArray> read_npz(const std::string& path) {
 
 void write_npz(const std::string& path, const std::map<std::string, NpyArray>& arrays,
                bool compress, int level) {
-  std::vector<std::pair<std::string, NpyView>> views;
-  for (const auto& [key, a] : arrays) {
-    if (a.fortran_order) throw Error("write_npz: only C-order arrays are written");
-    views.push_back({key, {a.descr, a.shape, a.data}});
-  }
-  write_npz_views(path, views, compress, level);
-}
-
-void write_npz_views(const std::string& path,
-                     const std::vector<std::pair<std::string, NpyView>>& arrays, bool compress,
-                     int level) {
   // Each member is its npy header followed by the array's own bytes: nothing is copied
   // before libzip reads it.
   std::vector<std::vector<uint8_t>> headers;
@@ -401,13 +390,7 @@ void write_npz_views(const std::string& path,
   AtomicFile f(path);
   ZipWriter zip(f, compress, level);
   for (const auto& [key, a] : arrays) {
-    NpyArray probe;  // its element size and count, to check the bytes against
-    probe.descr = a.descr;
-    probe.shape = a.shape;
-    if (probe.itemsize() == 0 || uint64_t(probe.numel()) * probe.itemsize() != a.data.size())
-      throw Error("write_npz: member '" + key + "': " + std::to_string(a.data.size()) +
-                  " data bytes do not match dtype '" + a.descr + "' and the shape");
-    headers.push_back(npy_header(a.descr, a.shape));
+    headers.push_back(npy_header(a));
     zip.add(key + ".npy", {headers.back(), a.data});
   }
   zip.finish();

@@ -13,7 +13,6 @@
 #include <cstring>
 #include <map>
 #include <memory>
-#include <span>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -110,25 +109,6 @@ constexpr const char* npy_descr_of() {
   else
     static_assert(sizeof(T) == 0, "no numpy dtype for this type");
 }
-
-// An array written without copying its bytes (they must outlive the write); of(): a vector's
-// elements as a 1-D array.
-struct NpyView {
-  std::string descr;
-  std::vector<int64_t> shape;  // C order
-  std::span<const uint8_t> data;
-  template <typename T>
-  static NpyView of(const std::vector<T>& v) {
-    static_assert(!std::is_same_v<T, bool>, "std::vector<bool> has no contiguous bytes");
-    return {npy_descr_of<T>(),
-            {int64_t(v.size())},
-            {reinterpret_cast<const uint8_t*>(v.data()), v.size() * sizeof(T)}};
-  }
-};
-// The same archive from views, members in the given order.
-void write_npz_views(const std::string& path,
-                     const std::vector<std::pair<std::string, NpyView>>& arrays, bool compress,
-                     int level = 6);
 
 namespace npy_detail {
 // Element kind of a descr: 'f', 'i', 'u', 'b' (validated), or throws.
