@@ -99,7 +99,7 @@ void add(CLI::App& app) {
       "  spikems calibrate --model m.safetensors --data data/mod-val --split all --static "
       "data/poster-val --max-static-moving 5 --out m-cal.safetensors");
   cmd->add_option("--model", a.model,
-                  "The model file to calibrate (or a shipped model's name: default, fast)")
+                  "The model file to calibrate (or a shipped model's name: default, fast, full)")
       ->required();
   cmd->add_option("--data", a.data,
                   "Labelled validation data: simulator folders or recordings (repeat for more)")

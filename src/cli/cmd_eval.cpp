@@ -146,7 +146,7 @@ void add(CLI::App& app) {
       "--output-threshold)");
   cmd->add_option("--model", a.models,
                   "Model file (.safetensors, spikems format) or a shipped model's name (default, "
-                  "fast); repeat to compare several (default: the shipped default model)");
+                  "fast, full); repeat to compare several (default: the shipped default model)");
   cmd->add_option("--baseline", a.baselines,
                   "Also score a baseline on the same windows: all-events (every pixel with an "
                   "event predicted moving); repeatable")

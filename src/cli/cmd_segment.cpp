@@ -364,11 +364,13 @@ void add(CLI::App& app) {
       "An event of step t is foreground when the network's output spikes at its pixel within "
       "steps t..t+L+tolerance (L = one step per layer). Text output: one line 't_us x y p "
       "label' per event. See docs/runtime.md.");
-  cmd->add_option("--model", a.model,
-                  "Model file (.safetensors, spikems format), or a shipped model's name: "
-                  "default (models/spikems-default.safetensors, or $SPIKEMS_MODEL; the default) "
-                  "or fast (models/spikems-fast.safetensors: half resolution, ~2x faster; "
-                  "models/README.md)");
+  cmd->add_option(
+      "--model", a.model,
+      "Model file (.safetensors, spikems format), or a shipped model's name: "
+      "default (models/spikems-default.safetensors, or $SPIKEMS_MODEL; the default: "
+      "half resolution, 5 ms steps), fast (models/spikems-fast.safetensors: half "
+      "resolution, 10 ms steps, ~1.3x faster) or full (models/spikems-full.safetensors: "
+      "full resolution, 10 ms steps, ~1.5x slower; models/README.md)");
   cmd->add_option("--input", a.input, "Event file (any format), or - for text 't x y p' on stdin")
       ->required();
   cmd->add_option("--out", a.out,

@@ -30,11 +30,13 @@ seg --out default.txt >/dev/null || fail "segment without --model: $(seg --out d
 seg --out named.txt --model "$model" >/dev/null || fail "segment --model $model"
 cmp -s "$work/default.txt" "$work/named.txt" || fail "default and named model disagree"
 [ "$(grep -vc '^#' "$work/default.txt")" = 3 ] || fail "not one label per event"
-# The fast model by its name: the installed file.
-seg --out fast.txt --model fast >/dev/null || fail "segment --model fast: $(seg --out fast.txt --model fast)"
-seg --out fastnamed.txt --model "$prefix/share/spikems/models/spikems-fast.safetensors" >/dev/null ||
-  fail "segment --model spikems-fast.safetensors"
-cmp -s "$work/fast.txt" "$work/fastnamed.txt" || fail "--model fast and its file disagree"
+# The other shipped models by their names: the installed files.
+for name in fast full; do
+  seg --out $name.txt --model $name >/dev/null || fail "segment --model $name: $(seg --out $name.txt --model $name)"
+  seg --out ${name}named.txt --model "$prefix/share/spikems/models/spikems-$name.safetensors" >/dev/null ||
+    fail "segment --model spikems-$name.safetensors"
+  cmp -s "$work/$name.txt" "$work/${name}named.txt" || fail "--model $name and its file disagree"
+done
 
 # 2. <exe>/../models/ (the source-tree place) comes first: a broken file there is the one read.
 mkdir "$prefix/models"
