@@ -19,10 +19,19 @@ case "${1:?sparse, lookalikes or control}" in
   control) TRAIN='[{path="data/mod3-train16-ds2",split="all",weight=1.0}]' ;;
   *) echo "unknown run $1 (sparse, lookalikes or control)" >&2; exit 1 ;;
 esac
-INIT=runs/skip37/fast5/control/best.safetensors STEPS=${STEPS:-400} ROOT=runs/sparse38/$1 \
+# NOTEACHER=1: without the ANN teacher (no distillation, no feature transfer; it calls 22.6 % of
+# the static look-alike rooms' events moving, the SNN 10.2 %), into runs/sparse38/NAME-noteacher.
+# TEACHER_MODEL=PATH: another teacher (teacher.sh's), into runs/sparse38/NAME-TAG (TAG=newteacher).
+TEACHER=(--set "loss.teacher=\"${TEACHER_MODEL:-runs/half36/teacher-half-2500/best.safetensors}\"")
+SUFFIX=${TEACHER_MODEL:+-${TAG:-newteacher}}
+if [ -n "${NOTEACHER:-}" ]; then
+  TEACHER=(--set 'loss.teacher=""' --set loss.teacher_weight=0 --set loss.feature_weight=0)
+  SUFFIX=-noteacher
+fi
+INIT=runs/skip37/fast5/control/best.safetensors STEPS=${STEPS:-400} ROOT=runs/sparse38/$1$SUFFIX \
   TIME_LIMIT=${TIME_LIMIT:-40min} exec runs/drop29/train.sh control \
-  --set 'model.srm_onset="same_step"' --set sample.step_ms=5 --set run.threads=1 \
+  --set 'model.srm_onset="same_step"' --set sample.step_ms=5 --set run.threads=${THREADS:-1} \
   --set "data.train=$TRAIN" \
   --set 'data.val=[{path="data/mod2-val-ds2",split="all"}]' \
   --set 'data.val_static=[{path="data/posterflat-sim601-ds2"},{path="data/sparsestatic-val-ds2"}]' \
-  --set 'loss.teacher="runs/half36/teacher-half-2500/best.safetensors"' "${@:2}"
+  "${TEACHER[@]}" "${@:2}"
