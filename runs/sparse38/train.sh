@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Thirty-eighth session (runs/sparse38/README.md): does training on sparse walls (mod-sparse.toml:
 # a few textured islands on nearly silent walls) stop the default calling a real static scene of
-# shapes on a white wall moving? Two fine-tunes of the default's weights before calibration
+# shapes on a white wall moving? Fine-tunes of the default's weights before calibration
 # (runs/skip37/fast5/control/best.safetensors: half resolution, 5 ms steps), its own recipe
 # (runs/skip37/train.sh fast5: the half-resolution teacher, lr 2e-4 cosine, batch 4, weight
-# average 0.995), side by side on one thread each, the same rooms and steps:
+# average 0.995), 400 steps on one thread each (THREADS=N for more), the same rooms and steps:
 #   sparse:  60 % the mod rooms (data/mod3-train16-ds2), 40 % sparse-wall rooms (data/sparse-train-ds2)
 #   lookalikes: 60 % the mod rooms, 40 % rooms of plain walls with 4-10 static look-alikes
 #            (mod-lookalikes.toml, data/lookalikes-train-ds2): only motion tells objects apart
