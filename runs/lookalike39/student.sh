@@ -9,7 +9,7 @@
 #           false-positive signal from the mask (random crops: nothing to centre on)
 # Its static check is the flat poster and the static look-alike rooms of seed 3812 (the set the
 # calibration's static budget uses; never trained on).
-#   [STEPS=N] [TAG=T] runs/lookalike39/student.sh la|static [MORE train ARGS]   # -> runs/lookalike39/RUN[-T]/control
+#   [BASE=fast] [STEPS=N] [TAG=T] [TEACHER_MODEL=M] runs/lookalike39/student.sh la|static [MORE train ARGS]   # -> runs/lookalike39/[fast-]RUN[-T]/control
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 R='{path="data/mod3-train16-ds2",split="all",weight'
@@ -19,9 +19,12 @@ case "${1:?la or static}" in
   static) TRAIN="[$R=0.5},$L=0.35},{path=\"data/lookalikesstatic-train-ds2\",split=\"all\",weight=0.15}]" ;;
   *) echo "unknown run $1 (la or static)" >&2; exit 1 ;;
 esac
-INIT=runs/skip37/fast5/control/best.safetensors STEPS=${STEPS:-400} ROOT=runs/lookalike39/$1${TAG:+-$TAG} \
+# BASE=fast: the same for `--model fast` (its weights before calibration, 10 ms steps).
+INIT=runs/skip37/fast5/control/best.safetensors STEP_MS=5
+if [ "${BASE:-default}" = fast ]; then INIT=runs/skip37/fast/control/best.safetensors STEP_MS=10; fi
+INIT=$INIT STEPS=${STEPS:-400} ROOT=runs/lookalike39/${BASE:+$BASE-}$1${TAG:+-$TAG} \
   TIME_LIMIT=${TIME_LIMIT:-60min} exec runs/drop29/train.sh control \
-  --set 'model.srm_onset="same_step"' --set sample.step_ms=5 --set run.threads=${THREADS:-1} \
+  --set 'model.srm_onset="same_step"' --set sample.step_ms=$STEP_MS --set run.threads=${THREADS:-1} \
   --set "data.train=$TRAIN" \
   --set 'data.val=[{path="data/mod2-val-ds2",split="all"}]' \
   --set 'data.val_static=[{path="data/posterflat-sim601-ds2"},{path="data/lookalikesstatic-val-ds2"}]' \
