@@ -4,7 +4,7 @@
 # (runs/arch/ann-d6-step10-long/teacher-step4000) fine-tuned STEPS_T (400) steps on 60 % rooms /
 # 40 % look-alike rooms, then `full`'s weights before calibration (runs/skip37/control/best.safetensors)
 # STEPS_S (400) steps under it with `full`'s recipe (runs/drop29/train.sh control), two threads.
-#   runs/lookalike39/full.sh teacher|student
+#   [STEPS_T=N] [TEACHER_OUT=DIR] runs/lookalike39/full.sh teacher; [STEPS_S=N] runs/lookalike39/full.sh student
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 TRAIN='[{path="data/mod3-train16",split="all",weight=0.6},{path="data/lookalikes-train",split="all",weight=0.4}]'
@@ -16,7 +16,7 @@ case "${1:?teacher or student}" in
       --set 'data.val_static=[{path="data/lookalikesstatic-val"}]' \
       --set optim.lr=0.0003 --set optim.warmup_steps=50 --set optim.ema_decay=0.995 \
       --set run.val_every=200 --set run.keep_val_models=true --steps ${STEPS_T:-400} \
-      --time-limit 30min --out runs/lookalike39/full/teacher "${@:2}" ;;
+      --time-limit 30min --out "${TEACHER_OUT:-runs/lookalike39/full/teacher}" "${@:2}" ;;
   student)
     INIT=runs/skip37/control/best.safetensors STEPS=${STEPS_S:-400} ROOT=runs/lookalike39/full/la \
       TIME_LIMIT=${TIME_LIMIT:-40min} exec runs/drop29/train.sh control \
