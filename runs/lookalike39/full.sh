@@ -4,7 +4,9 @@
 # (runs/arch/ann-d6-step10-long/teacher-step4000) fine-tuned STEPS_T (400) steps on 60 % rooms /
 # 40 % look-alike rooms, then `full`'s weights before calibration (runs/skip37/control/best.safetensors)
 # STEPS_S (400) steps under it with `full`'s recipe (runs/drop29/train.sh control), two threads.
-#   [STEPS_T=N] [TEACHER_OUT=DIR] runs/lookalike39/full.sh teacher; [STEPS_S=N] runs/lookalike39/full.sh student
+#   [STEPS_T=N] [TEACHER_OUT=DIR] runs/lookalike39/full.sh teacher
+#   [STEPS_S=N] [TEACHER_MODEL=M] runs/lookalike39/full.sh student   # M: the committed 1,600-step
+#   teacher by default; this session's 400 + 400 run used runs/lookalike39/full/teacher/val-step400 (not kept)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 TRAIN='[{path="data/mod3-train16",split="all",weight=0.6},{path="data/lookalikes-train",split="all",weight=0.4}]'
@@ -23,6 +25,6 @@ case "${1:?teacher or student}" in
       --set 'model.srm_onset="same_step"' --set sample.step_ms=10 --set run.threads=2 \
       --set "data.train=$TRAIN" --set 'data.val=[{path="data/mod2-val",split="all"}]' \
       --set 'data.val_static=[{path="data/posterflat-sim601"},{path="data/lookalikesstatic-val"}]' \
-      --set 'loss.teacher="runs/lookalike39/full/teacher/val-step400.safetensors"' "${@:2}" ;;
+      --set "loss.teacher=\"${TEACHER_MODEL:-runs/lookalike39/full/teacher1600/val-step1600.safetensors}\"" "${@:2}" ;;
   *) echo "unknown stage $1 (teacher or student)" >&2; exit 1 ;;
 esac
