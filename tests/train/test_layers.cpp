@@ -82,6 +82,26 @@ TEST(Delay, ShiftsWithLinearInterpolationAndHasExactGradients) {
             1e-6);
 }
 
+// The distillation loss by hand (sigmoid projection of the spike count): the mean over the
+// event pixels of the given samples of -(q log p + (1 - q) log(1 - p)); *pixels: how many.
+double distill_by_hand(const torch::Tensor& out, const torch::Tensor& in, const torch::Tensor& q,
+                       const LossOptions& o, std::initializer_list<int64_t> samples,
+                       double* pixels = nullptr) {
+  const torch::Tensor P = out.sum(std::vector<int64_t>{0, 2});
+  double num = 0, den = 0;
+  for (int64_t b : samples)
+    for (int64_t y = 0; y < q.size(1); ++y)
+      for (int64_t x = 0; x < q.size(2); ++x) {
+        if (in.select(1, b).select(2, y).select(2, x).sum().item<double>() == 0) continue;
+        const double p = 1 / (1 + std::exp(-o.alpha * (P[b][y][x].item<double>() - o.beta)));
+        const double t = q[b][y][x].item<double>();
+        num += -(t * std::log(p) + (1 - t) * std::log(1 - p));
+        den += 1;
+      }
+  if (pixels) *pixels = den;
+  return num / den;
+}
+
 // Distillation: the BCE between the student's projected probability and the teacher's, over
 // the pixels with input events, by hand; its gradient by finite differences; zero where the
 // student already agrees (d/dP = alpha (p - q) for the sigmoid projection).
@@ -95,18 +115,10 @@ TEST(Loss, DistillMatchesItsFormulaAndGradient) {
   o.alpha = 4;
   o.beta = 0.5;
   const torch::Tensor P = out.sum(std::vector<int64_t>{0, 2});
-  double num = 0, den = 0;
-  for (int64_t b = 0; b < B; ++b)
-    for (int64_t y = 0; y < H; ++y)
-      for (int64_t x = 0; x < W; ++x) {
-        if (in.select(1, b).select(2, y).select(2, x).sum().item<double>() == 0) continue;
-        const double p = 1 / (1 + std::exp(-o.alpha * (P[b][y][x].item<double>() - o.beta)));
-        const double t = q[b][y][x].item<double>();
-        num += -(t * std::log(p) + (1 - t) * std::log(1 - p));
-        den += 1;
-      }
+  double den = 0;
+  const double by_hand = distill_by_hand(out, in, q, o, {0, 1}, &den);
   ASSERT_GT(den, 0);
-  EXPECT_NEAR(distill_loss(out, in, q, o).item<double>(), num / den, 1e-10);
+  EXPECT_NEAR(distill_loss(out, in, q, o).item<double>(), by_hand, 1e-10);
   EXPECT_LT(spikems::test::finite_difference_error(
                 [&](const torch::Tensor& v) { return distill_loss(v, in, q, o); }, out),
             1e-6);
@@ -163,6 +175,54 @@ TEST(Loss, DistillMatchesItsFormulaAndGradient) {
   l.backward();
   EXPECT_NEAR(l.item<double>(), 20 + std::log1p(std::exp(-20.0)), 1e-12);
   EXPECT_NEAR(silent.grad().item<double>(), -40 / (1 + std::exp(-20.0)), 1e-9);
+}
+
+// loss.teacher_static: which samples have a moving event is read from the labels of their
+// window's events; "labels" zeroes the static samples' targets, "skip" weights them out of the
+// mean (the loss then equals the moving samples' own, and the static ones get no gradient).
+TEST(Loss, DistillOfStaticSamplesFollowsTeacherStatic) {
+  torch::manual_seed(11);
+  const int64_t T = 4, B = 3, C = 2, H = 3, W = 4;
+  torch::Tensor in = (torch::rand({T, B, C, H, W}, torch::kDouble) < 0.4).to(torch::kDouble);
+  in[0][0][0][0][0] = 1.0;  // every sample has events; sample 0 one at (0, 0) at t = 0
+  in[1][2][1][2][3] = 1.0;  // sample 2 one at (2, 3) at t = 1
+  torch::Tensor fg = torch::zeros({T, B, H, W}, torch::kDouble);
+  fg[0][0][0][0] = 1.0;  // sample 0: the event at (0, 0) moves
+  fg[1][2][2][3] = 1.0;  // sample 2: the event at (2, 3) moves
+  fg[2][1][1][1] = 1.0;  // sample 1: a moving mask where no event fell: still static
+  for (int64_t c = 0; c < C; ++c) in[2][1][c][1][1] = 0.0;
+  const torch::Tensor q = torch::rand({B, H, W}, torch::kDouble);
+  const DistillTargets keep = static_distill_targets(q, in, fg, "teacher");
+  EXPECT_TRUE(keep.q.equal(q));
+  EXPECT_FALSE(keep.sample_weight.defined());
+  const DistillTargets lab = static_distill_targets(q, in, fg, "labels");
+  EXPECT_TRUE(lab.q[0].equal(q[0]));
+  EXPECT_TRUE(lab.q[2].equal(q[2]));
+  EXPECT_EQ(lab.q[1].abs().sum().item<double>(), 0.0);
+  EXPECT_FALSE(lab.sample_weight.defined());
+  const DistillTargets skip = static_distill_targets(q, in, fg, "skip");
+  EXPECT_TRUE(skip.q.equal(q));
+  ASSERT_TRUE(skip.sample_weight.defined());
+  EXPECT_EQ(skip.sample_weight[0].item<double>(), 1.0);
+  EXPECT_EQ(skip.sample_weight[1].item<double>(), 0.0);
+  EXPECT_EQ(skip.sample_weight[2].item<double>(), 1.0);
+  EXPECT_THROW(static_distill_targets(q, in, fg, "none"), std::exception);
+
+  LossOptions o;
+  o.alpha = 4;
+  o.beta = 0.5;
+  torch::Tensor out = torch::rand({T, B, 1, H, W}, torch::kDouble).requires_grad_(true);
+  // Skipping sample 1 is the loss of samples 0 and 2 alone, by hand: the mean over their event
+  // pixels (not the mean of two per-sample means).
+  const torch::Tensor l = distill_loss(out, in, skip.q, o, skip.sample_weight);
+  EXPECT_NEAR(l.item<double>(), distill_by_hand(out.detach(), in, q, o, {0, 2}), 1e-10);
+  l.backward();
+  EXPECT_EQ(out.grad().select(1, 1).abs().max().item<double>(), 0.0);
+  EXPECT_GT(out.grad().select(1, 0).abs().max().item<double>(), 0.0);
+  // Weights of one are no weights; a weight per sample of the wrong length is refused.
+  EXPECT_NEAR(distill_loss(out, in, q, o, torch::ones({B}, torch::kDouble)).item<double>(),
+              distill_loss(out, in, q, o).item<double>(), 1e-12);
+  EXPECT_THROW(distill_loss(out, in, q, o, torch::ones({B + 1}, torch::kDouble)), std::exception);
 }
 
 // Attention transfer: per layer, the squared distance of the unit-norm maps mean_c a^2, by hand;

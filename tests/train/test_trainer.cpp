@@ -613,6 +613,13 @@ TEST(Trainer, BadConfigsNameTheKey) {
                  "data.val_static=[{path=\"" + tiny_data() + "\"}]"})
                 .find("run.val_full_window_ms: must be a multiple of sample.step_ms"),
             std::string::npos);
+  EXPECT_NE(msg({"loss.teacher_static=\"never\""})
+                .find("loss.teacher_static: \"never\" is not one of teacher, skip, labels"),
+            std::string::npos);
+  EXPECT_NE(
+      msg({"loss.teacher_static=\"skip\""})
+          .find("loss.teacher_static: changes the distillation: needs loss.teacher_weight > 0"),
+      std::string::npos);
   EXPECT_NE(msg({"loss.offevent_weight=-1.0"}).find("loss.offevent_weight: must not be negative"),
             std::string::npos);
   EXPECT_NE(msg({"loss.offevent_weight=1.0", "loss.projection=\"exponential\""})

@@ -1,5 +1,6 @@
 #include "core/util/atomic_file.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -59,18 +60,40 @@ void AtomicFile::write(const void* data, size_t n) {
     fail(target_, "", std::string("write failed: ") + std::strerror(errno));
 }
 
+// The temporary file's data on disk before the rename makes it the target: after a crash the
+// target holds the old content or the new, never a truncated file. A failed fsync (EIO, a full
+// disk on a network file system) means the data may not be there, so the target is not
+// replaced. File systems without fsync (EINVAL, ENOSYS) leave nothing more to do.
+void AtomicFile::sync_to_disk(int fd) const {
+  if (::fsync(fd) != 0 && errno != EINVAL && errno != ENOSYS && errno != ENOTSUP)
+    fail(target_, "", std::string("cannot write to disk (fsync): ") + std::strerror(errno));
+}
+
 void AtomicFile::commit() {
   if (committed_) return;
   if (f_) {
     if (std::fflush(f_) != 0)
       fail(target_, "", std::string("flush failed: ") + std::strerror(errno));
-    fsync(fileno(f_));
-    std::fclose(f_);
+    sync_to_disk(fileno(f_));
+    const int closed = std::fclose(f_);
     f_ = nullptr;
+    if (closed != 0) fail(target_, "", std::string("close failed: ") + std::strerror(errno));
   } else if (access(temp_.c_str(), F_OK) != 0) {
     handle();  // an empty output is still an output
     std::fclose(f_);
     f_ = nullptr;
+  } else {
+    // Written by a library that opens files by name (HDF5, libzip, libpng): synced here too.
+    const int fd = ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+      fail(target_, "", std::string("cannot reopen the temporary file: ") + std::strerror(errno));
+    try {
+      sync_to_disk(fd);
+    } catch (...) {
+      ::close(fd);
+      throw;
+    }
+    ::close(fd);
   }
   if (std::rename(temp_.c_str(), target_.c_str()) != 0)
     fail(target_, "",

@@ -31,6 +31,7 @@ class AtomicFile {
   std::string temp_;
   std::FILE* f_ = nullptr;
   bool committed_ = false;
+  void sync_to_disk(int fd) const;
 };
 
 // Writes a whole buffer atomically.

@@ -114,25 +114,48 @@ torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input
 }
 
 torch::Tensor distill_loss(const torch::Tensor& out, const torch::Tensor& input,
-                           const torch::Tensor& teacher_prob, const LossOptions& o) {
+                           const torch::Tensor& teacher_prob, const LossOptions& o,
+                           const torch::Tensor& sample_weight) {
   TORCH_CHECK(
       out.size(1) == input.size(1) && out.size(3) == input.size(3) && out.size(4) == input.size(4),
       "loss: output and input must share batch and pixel grid (use align_to_input)");
   TORCH_CHECK(teacher_prob.dim() == 3 && teacher_prob.size(0) == out.size(1) &&
                   teacher_prob.size(1) == out.size(3) && teacher_prob.size(2) == out.size(4),
               "distillation: the teacher's probabilities must be [B, H, W] on the output's grid");
+  TORCH_CHECK(!sample_weight.defined() ||
+                  (sample_weight.dim() == 1 && sample_weight.size(0) == out.size(1)),
+              "distillation: the sample weights must be [B]");
   const torch::Tensor P = output_projection(out, o);
+  // The mean over event pixels, each sample's pixels weighted by its sample weight.
+  const auto mean = [&](const torch::Tensor& v) {
+    if (!sample_weight.defined()) return mean_over_event_pixels(v, input);
+    const torch::Tensor had = event_pixels(input, v.scalar_type()) *
+                              sample_weight.detach().to(v.dtype()).view({-1, 1, 1});
+    return (v * had).sum() / torch::clamp_min(had.sum(), 1.0);
+  };
   const torch::Tensor q = teacher_prob.detach().to(P.dtype());
   if (o.potential_readout || o.projection == LossOptions::Projection::Sigmoid) {
     // From the logit z: -(q log s(z) + (1-q) log(1-s(z))) = q softplus(-z) + (1-q) softplus(z),
     // exact at any z, so a pixel far on the wrong side keeps its gradient (a clamped p had none:
     // with a steep alpha the potential readout saturates p within float precision).
     const torch::Tensor z = o.alpha * (P - (o.potential_readout ? 1.0 : o.beta));
-    return mean_over_event_pixels(q * torch::softplus(-z) + (1 - q) * torch::softplus(z), input);
+    return mean(q * torch::softplus(-z) + (1 - q) * torch::softplus(z));
   }
   const torch::Tensor p = torch::clamp(projection_probability(P, o), 1e-6, 1 - 1e-6);
   const torch::Tensor bce = -(q * torch::log(p) + (1 - q) * torch::log1p(-p));
-  return mean_over_event_pixels(bce, input);
+  return mean(bce);
+}
+
+DistillTargets static_distill_targets(const torch::Tensor& teacher_prob, const torch::Tensor& input,
+                                      const torch::Tensor& fg_mask, const std::string& mode) {
+  if (mode == "teacher") return {teacher_prob, {}};
+  TORCH_CHECK(mode == "labels" || mode == "skip",
+              "loss.teacher_static must be teacher, labels or skip, not ", mode);
+  const torch::Tensor moving =
+      (foreground_target(input.detach(), fg_mask).sum(std::vector<int64_t>{0, 2, 3, 4}) > 0)
+          .to(teacher_prob.scalar_type());
+  if (mode == "labels") return {teacher_prob * moving.view({-1, 1, 1}), {}};
+  return {teacher_prob, moving};
 }
 
 torch::Tensor teacher_entropy(const torch::Tensor& input, const torch::Tensor& teacher_prob) {

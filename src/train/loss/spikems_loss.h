@@ -19,6 +19,7 @@
 
 #include <torch/torch.h>
 
+#include <string>
 #include <vector>
 
 #include "train/neuron/temporal_kernel.h"
@@ -93,8 +94,21 @@ torch::Tensor soft_iou_loss(const torch::Tensor& out, const torch::Tensor& input
 // teacher's answer means something). Unlike the mask it says at every ego-motion event how
 // sure a net that discriminates is that it is background. Computed from the logit (exact at
 // any potential) for the sigmoid projections; the exponential one clamps p to [1e-6, 1 - 1e-6].
+// sample_weight [B] (optional): a weight per sample of its pixels in the mean (0 leaves a
+// sample out; loss.teacher_static = "skip").
 torch::Tensor distill_loss(const torch::Tensor& out, const torch::Tensor& input,
-                           const torch::Tensor& teacher_prob, const LossOptions& o);
+                           const torch::Tensor& teacher_prob, const LossOptions& o,
+                           const torch::Tensor& sample_weight = {});
+// loss.teacher_static for the samples whose window [T, B, C, H, W] has no moving event
+// (fg_mask as in bce_loss): "teacher" keeps the teacher's q; "labels" sets their q to 0 (their
+// labels); "skip" keeps q and returns sample weights [B] of 0 for them, 1 for the others (for
+// distill_loss). Other modes throw.
+struct DistillTargets {
+  torch::Tensor q;              // [B, H, W]
+  torch::Tensor sample_weight;  // [B], or undefined: every sample counts
+};
+DistillTargets static_distill_targets(const torch::Tensor& teacher_prob, const torch::Tensor& input,
+                                      const torch::Tensor& fg_mask, const std::string& mode);
 // The distillation's floor: the teacher's own mean binary entropy -(q log q + (1 - q) log(1 - q))
 // (0 log 0 = 0) over the pixels with input events: distill_loss of a student that matched it.
 torch::Tensor teacher_entropy(const torch::Tensor& input, const torch::Tensor& teacher_prob);

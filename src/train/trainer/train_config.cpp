@@ -277,6 +277,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   b.bind("loss", "iou_weight", c.iou_weight);
   b.bind("loss", "teacher", c.teacher);
   b.bind("loss", "teacher_weight", c.teacher_weight);
+  b.bind("loss", "teacher_static", c.teacher_static);
   b.bind("loss", "attention_weight", c.attention_weight);
   b.bind("loss", "feature_weight", c.feature_weight);
   b.bind("loss", "offevent_weight", c.offevent_weight);
@@ -419,6 +420,9 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.offevent_weight > 0 && c.type == "ann2d")
     b.bad("loss", "offevent_weight", "applies to the spiking network: model.type = \"snn\"");
   one_of(b, "loss", "projection", c.projection, {"sigmoid", "exponential"});
+  one_of(b, "loss", "teacher_static", c.teacher_static, {"teacher", "skip", "labels"});
+  if (c.teacher_static != "teacher" && !(c.teacher_weight > 0))
+    b.bad("loss", "teacher_static", "changes the distillation: needs loss.teacher_weight > 0");
   if (c.lambda < 0) b.bad("loss", "lambda", "must not be negative");
   if (c.activity_weight < 0) b.bad("loss", "activity_weight", "must not be negative");
   if (!(c.synops_weight >= 0)) b.bad("loss", "synops_weight", "must not be negative");

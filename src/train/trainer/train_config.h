@@ -79,6 +79,12 @@ struct TrainConfig {
   // probabilities the SNN's output is pulled to, with this weight (0: off).
   std::string teacher;
   double teacher_weight = 0;
+  // Samples whose window has no moving event (static scenes, crops of background): "teacher"
+  // distils them like the others; "skip" leaves them to the task's terms (their labels: all
+  // background); "labels" distils them towards their labels (q = 0), with teacher_weight.
+  // A teacher that calls static look-alikes moving otherwise pulls the student to its mistake
+  // on exactly the samples that show it is one.
+  std::string teacher_static = "teacher";
   // Attention transfer from the same teacher (spikems_loss.h, attention_transfer_loss): each
   // hidden layer's spatial activity matched to the teacher's layer of the same index (0: off).
   double attention_weight = 0;

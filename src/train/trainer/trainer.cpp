@@ -216,7 +216,10 @@ StepOutput forward_loss(SpikeMSNetwork& net, Ann2dNetwork teacher, int64_t teach
       t_layers.pop_back();
       t_hidden = std::move(t_layers);
     }
-    if (c.teacher_weight > 0) o.distill = distill_loss(scored, in, q, lo);
+    // Samples without a moving event: the teacher's q, their labels, or no distillation.
+    const DistillTargets dt = static_distill_targets(q, in, fg, c.teacher_static);
+    q = dt.q;
+    if (c.teacher_weight > 0) o.distill = distill_loss(scored, in, q, lo, dt.sample_weight);
     o.distill_floor = teacher_entropy(in, q);
     o.distill_const = teacher_mean_entropy(in, q);
     if (c.attention_weight > 0 || c.feature_weight > 0) {

@@ -3,10 +3,24 @@
 #include <cstdio>
 #include <cstring>
 #include <mutex>
+#include <utility>
 
 #include "core/util/error.h"
 
 namespace spikems {
+
+bool H5Handle::close() {
+  if (id_ < 0) return true;
+  const hid_t id = std::exchange(id_, -1);
+  switch (H5Iget_type(id)) {
+    case H5I_FILE:
+      return H5Fclose(id) >= 0;
+    default:
+      id_ = id;
+      reset();
+      return true;
+  }
+}
 
 void H5Handle::reset() {
   if (id_ < 0) return;

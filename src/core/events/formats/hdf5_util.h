@@ -30,6 +30,9 @@ class H5Handle {
   hid_t get() const { return id_; }
   bool valid() const { return id_ >= 0; }
   void reset();
+  // reset() that reports whether HDF5's close succeeded (a file's close writes what is left of
+  // its metadata, and can fail on a full disk).
+  bool close();
 
  private:
   hid_t id_ = -1;

@@ -141,7 +141,7 @@ class SpikemsH5Writer final : public EventWriter {
     label_.reset();
     events_.reset();
     if (H5Fflush(f, H5F_SCOPE_GLOBAL) < 0) fail(path_, "", "HDF5 flush failed (disk full?)");
-    file_.reset();
+    if (!file_.close()) fail(path_, "", "HDF5 close failed (disk full?)");
     out_.commit();
   }
 

@@ -253,12 +253,6 @@ void ZipWriter::finish() {
     out_.write(eocd, sizeof eocd);
     return;
   }
-  // AtomicFile fsyncs only what it wrote itself.
-  int fd = ::open(out_.temp_path().c_str(), O_RDONLY);
-  if (fd >= 0) {
-    ::fsync(fd);
-    ::close(fd);
-  }
 }
 
 }  // namespace spikems
