@@ -5,7 +5,7 @@
 # 40 % look-alike rooms, then `full`'s weights before calibration (runs/skip37/control/best.safetensors)
 # STEPS_S (400) steps under it with `full`'s recipe (runs/drop29/train.sh control), two threads.
 #   [STEPS_T=N] [TEACHER_OUT=DIR] runs/lookalike39/full.sh teacher
-#   [STEPS_S=N] [TEACHER_MODEL=M] runs/lookalike39/full.sh student   # M: the committed 1,600-step
+#   [STEPS_S=N] [TAG=T] [TEACHER_MODEL=M] runs/lookalike39/full.sh student   # -> full/la[-T]/control; M: the committed 1,600-step
 #   teacher by default; this session's 400 + 400 run used runs/lookalike39/full/teacher/val-step400 (not kept)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -20,7 +20,7 @@ case "${1:?teacher or student}" in
       --set run.val_every=200 --set run.keep_val_models=true --steps ${STEPS_T:-400} \
       --time-limit 30min --out "${TEACHER_OUT:-runs/lookalike39/full/teacher}" "${@:2}" ;;
   student)
-    INIT=runs/skip37/control/best.safetensors STEPS=${STEPS_S:-400} ROOT=runs/lookalike39/full/la \
+    INIT=runs/skip37/control/best.safetensors STEPS=${STEPS_S:-400} ROOT=runs/lookalike39/full/la${TAG:+-$TAG} \
       TIME_LIMIT=${TIME_LIMIT:-40min} exec runs/drop29/train.sh control \
       --set 'model.srm_onset="same_step"' --set sample.step_ms=10 --set run.threads=2 \
       --set "data.train=$TRAIN" --set 'data.val=[{path="data/mod2-val",split="all"}]' \
