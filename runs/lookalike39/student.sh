@@ -9,10 +9,11 @@
 #           false-positive signal from the mask (random crops: nothing to centre on)
 # Its static check is the flat poster and the static look-alike rooms of seed 3812 (the set the
 # calibration's static budget uses; never trained on).
-#   [BASE=fast] [STEPS=N] [TAG=T] [TEACHER_MODEL=M] runs/lookalike39/student.sh la|static [MORE train ARGS]   # -> runs/lookalike39/[fast-]RUN[-T]/control
+#   [BASE=fast] [STEPS=N] [TAG=T] [TEACHER_MODEL=M] [ROOMS=NAME] runs/lookalike39/student.sh la|static [MORE train ARGS]   # -> runs/lookalike39/[fast-]RUN[-T]/control
+# ROOMS: the rooms' data set (data/NAME-ds2; mod3-train16 by default, 16 rooms of 1.5 s).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-R='{path="data/mod3-train16-ds2",split="all",weight'
+R="{path=\"data/${ROOMS:-mod3-train16}-ds2\",split=\"all\",weight"
 L='{path="data/lookalikes-train-ds2",split="all",weight'
 case "${1:?la or static}" in
   la) TRAIN="[$R=0.6},$L=0.4}]" ;;

@@ -7,17 +7,20 @@
 #   runs/lookalike39/teacher.sh        # -> runs/lookalike39/teacher/val-step*.safetensors
 # STATIC=1: 50 % rooms, 35 % look-alike rooms, 15 % look-alike rooms without moving objects
 # (data/lookalikesstatic-train-ds2: every event background), into runs/lookalike39/teacher-static.
+# ROOMS=NAME (data/NAME-ds2 for the rooms), INIT=MODEL, OUT=DIR, THREADS=N: the fortieth session's
+# teacher on 96 rooms (runs/rooms40/README.md).
 # Data: runs/sparse38/data.sh (mod3-train16, lookalikes-train, mod2-val, lookalikesstatic-val; -ds2).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-TRAIN='[{path="data/mod3-train16-ds2",split="all",weight=0.6},{path="data/lookalikes-train-ds2",split="all",weight=0.4}]'
-OUT=runs/lookalike39/teacher
+R="data/${ROOMS:-mod3-train16}-ds2"
+TRAIN="[{path=\"$R\",split=\"all\",weight=0.6},{path=\"data/lookalikes-train-ds2\",split=\"all\",weight=0.4}]"
+OUT=${OUT:-runs/lookalike39/teacher}
 if [ -n "${STATIC:-}" ]; then
   TRAIN='[{path="data/mod3-train16-ds2",split="all",weight=0.5},{path="data/lookalikes-train-ds2",split="all",weight=0.35},{path="data/lookalikesstatic-train-ds2",split="all",weight=0.15}]'
   OUT=runs/lookalike39/teacher-static
 fi
-exec build/spikems train --config runs/arch/ann-d6-step10-long/config.json -q --threads 2 \
-  --set 'model.init="runs/sparse38/teacher-la/best.safetensors"' \
+exec build/spikems train --config runs/arch/ann-d6-step10-long/config.json -q --threads ${THREADS:-2} \
+  --set "model.init=\"${INIT:-runs/sparse38/teacher-la/best.safetensors}\"" \
   --set "data.train=$TRAIN" \
   --set 'data.val=[{path="data/mod2-val-ds2",split="all"}]' \
   --set 'data.val_static=[{path="data/lookalikesstatic-val-ds2"}]' \
