@@ -6,10 +6,10 @@
 # STEPS_S (400) steps under it with `full`'s recipe (runs/drop29/train.sh control), two threads.
 #   [STEPS_T=N] [TEACHER_OUT=DIR] runs/lookalike39/full.sh teacher
 #   [STEPS_S=N] [TAG=T] [TEACHER_MODEL=M] runs/lookalike39/full.sh student   # -> full/la[-T]/control; M: the committed 1,600-step
-#   teacher by default; this session's 400 + 400 run used runs/lookalike39/full/teacher/val-step400 (not kept)
+#   teacher by default; ROOMS=NAME: data/NAME for the rooms (mod3-train16 by default); this session's 400 + 400 run used runs/lookalike39/full/teacher/val-step400 (not kept)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-TRAIN='[{path="data/mod3-train16",split="all",weight=0.6},{path="data/lookalikes-train",split="all",weight=0.4}]'
+TRAIN="[{path=\"data/${ROOMS:-mod3-train16}\",split=\"all\",weight=0.6},{path=\"data/lookalikes-train\",split=\"all\",weight=0.4}]"
 case "${1:?teacher or student}" in
   teacher)
     exec build/spikems train --config runs/arch/ann-d6-step10-long/config.json -q --threads 2 \
