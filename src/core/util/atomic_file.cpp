@@ -64,9 +64,16 @@ void AtomicFile::write(const void* data, size_t n) {
 // target holds the old content or the new, never a truncated file. A failed fsync (EIO, a full
 // disk on a network file system) means the data may not be there, so the target is not
 // replaced. File systems without fsync (EINVAL, ENOSYS) leave nothing more to do.
-void AtomicFile::sync_to_disk(int fd) const {
-  if (::fsync(fd) != 0 && errno != EINVAL && errno != ENOSYS && errno != ENOTSUP)
-    fail(target_, "", std::string("cannot write to disk (fsync): ") + std::strerror(errno));
+namespace {
+int fsync_error(int fd) {
+  if (::fsync(fd) == 0 || errno == EINVAL || errno == ENOSYS || errno == ENOTSUP) return 0;
+  return errno;
+}
+}  // namespace
+
+void AtomicFile::fail_sync(int err) const {
+  if (err != 0)
+    fail(target_, "", std::string("cannot write to disk (fsync): ") + std::strerror(err));
 }
 
 void AtomicFile::commit() {
@@ -74,7 +81,7 @@ void AtomicFile::commit() {
   if (f_) {
     if (std::fflush(f_) != 0)
       fail(target_, "", std::string("flush failed: ") + std::strerror(errno));
-    sync_to_disk(fileno(f_));
+    fail_sync(fsync_error(fileno(f_)));
     const int closed = std::fclose(f_);
     f_ = nullptr;
     if (closed != 0) fail(target_, "", std::string("close failed: ") + std::strerror(errno));
@@ -87,13 +94,9 @@ void AtomicFile::commit() {
     const int fd = ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0)
       fail(target_, "", std::string("cannot reopen the temporary file: ") + std::strerror(errno));
-    try {
-      sync_to_disk(fd);
-    } catch (...) {
-      ::close(fd);
-      throw;
-    }
+    const int err = fsync_error(fd);
     ::close(fd);
+    fail_sync(err);
   }
   if (std::rename(temp_.c_str(), target_.c_str()) != 0)
     fail(target_, "",

@@ -31,7 +31,7 @@ class AtomicFile {
   std::string temp_;
   std::FILE* f_ = nullptr;
   bool committed_ = false;
-  void sync_to_disk(int fd) const;
+  void fail_sync(int err) const;  // err: an fsync's errno, 0 when it succeeded
 };
 
 // Writes a whole buffer atomically.

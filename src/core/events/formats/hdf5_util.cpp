@@ -10,16 +10,11 @@
 namespace spikems {
 
 bool H5Handle::close() {
-  if (id_ < 0) return true;
-  const hid_t id = std::exchange(id_, -1);
-  switch (H5Iget_type(id)) {
-    case H5I_FILE:
-      return H5Fclose(id) >= 0;
-    default:
-      id_ = id;
-      reset();
-      return true;
+  if (id_ < 0 || H5Iget_type(id_) != H5I_FILE) {
+    reset();
+    return true;
   }
+  return H5Fclose(std::exchange(id_, -1)) >= 0;
 }
 
 void H5Handle::reset() {

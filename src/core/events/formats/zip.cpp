@@ -1,8 +1,6 @@
 #include "core/events/formats/zip.h"
 
-#include <fcntl.h>
 #include <sys/stat.h>
-#include <unistd.h>
 #include <zip.h>
 
 #include <algorithm>
