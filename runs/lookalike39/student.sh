@@ -10,14 +10,17 @@
 # Its static check is the flat poster and the static look-alike rooms of seed 3812 (the set the
 # calibration's static budget uses; never trained on).
 #   [BASE=fast] [STEPS=N] [TAG=T] [TEACHER_MODEL=M] [ROOMS=NAME] runs/lookalike39/student.sh la|static [MORE train ARGS]   # -> runs/lookalike39/[fast-]RUN[-T]/control
-# ROOMS: the rooms' data set (data/NAME-ds2; mod3-train16 by default, 16 rooms of 1.5 s).
+# ROOMS: the rooms' data set(s) (data/NAME-ds2; mod3-train16 by default, 16 rooms of 1.5 s).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-R="{path=\"data/${ROOMS:-mod3-train16}-ds2\",split=\"all\",weight"
+# Several names (ROOMS="a b"): the rooms' share split evenly between the sets.
+read -ra RS <<< "${ROOMS:-mod3-train16}"
+rooms() { local w; w=$(awk -v s="$1" -v n=${#RS[@]} 'BEGIN { printf "%g", s / n }')
+          for r in "${RS[@]}"; do printf '{path="data/%s-ds2",split="all",weight=%s},' "$r" "$w"; done; }
 L='{path="data/lookalikes-train-ds2",split="all",weight'
 case "${1:?la or static}" in
-  la) TRAIN="[$R=0.6},$L=0.4}]" ;;
-  static) TRAIN="[$R=0.5},$L=0.35},{path=\"data/lookalikesstatic-train-ds2\",split=\"all\",weight=0.15}]" ;;
+  la) TRAIN="[$(rooms 0.6)$L=0.4}]" ;;
+  static) TRAIN="[$(rooms 0.5)$L=0.35},{path=\"data/lookalikesstatic-train-ds2\",split=\"all\",weight=0.15}]" ;;
   *) echo "unknown run $1 (la or static)" >&2; exit 1 ;;
 esac
 # BASE=fast: the same for `--model fast` (its weights before calibration, 10 ms steps).
