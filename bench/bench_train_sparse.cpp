@@ -23,7 +23,7 @@
 #include "core/dataset/batch_loader.h"
 #include "core/dataset/sequence.h"
 #include "core/model/model_file.h"
-#include "train/host_memory.h"
+#include "core/util/host_memory.h"
 #include "train/loss/spikems_loss.h"
 #include "train/network/spikems_network.h"
 #include "train/neuron/psp.h"
@@ -174,7 +174,7 @@ int run(const Options& o) {
   // Subnormal floats (tiny gradients) are slow on x86; this makes them zero (both paths), set
   // before the thread pool starts so that its threads inherit the mode.
   if (o.flush_denormal) at::globalContext().setFlushDenormal(true);
-  // As `spikems train` (train/host_memory.h): freed tensors stay in the process.
+  // As `spikems train` (core/util/host_memory.h): freed tensors stay in the process.
   if (!o.system_malloc) keep_freed_memory();
   const int threads = set_torch_threads(o.threads);
   TrainConfig c = load_train_config(o.config, {"sample.crop=" + std::to_string(o.crop)});
@@ -264,7 +264,7 @@ int main(int argc, char** argv) {
           "batch (run from the repository root), with the shipped model and with weights set to "
           "each firing rate of --rates (default 0.01,0.03,0.06,0.12,0.25). --layers adds the "
           "per-layer crossover density. --system-malloc: glibc's default allocator settings "
-          "(spikems train keeps freed memory; train/host_memory.h).\n");
+          "(spikems train keeps freed memory; core/util/host_memory.h).\n");
       return 0;
     } else if (a == "--data") {
       o.data = value();

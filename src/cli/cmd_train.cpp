@@ -6,7 +6,7 @@
 #include "cli/torch_helper.h"
 #include "core/util/duration.h"
 #include "core/util/error.h"
-#include "train/host_memory.h"
+#include "core/util/host_memory.h"
 #include "train/trainer/trainer.h"
 
 namespace {
@@ -28,7 +28,7 @@ void run(const Args& a) {
   if (a.threads >= 0) overrides.push_back("run.threads=" + std::to_string(a.threads));
   if (!a.device.empty()) overrides.push_back("run.device=\"" + a.device + "\"");
   if (!a.kernels.empty()) overrides.push_back("run.kernels=\"" + a.kernels + "\"");
-  keep_freed_memory();  // reuse freed tensor memory: no page faults per step (host_memory.h)
+  spikems::keep_freed_memory();  // freed tensor memory reused: no page faults per step
   TrainRunOptions ro;
   ro.dist = resolve_dist_options(a.dist);  // flags, then MASTER_ADDR, MASTER_PORT, RANK, WORLD_SIZE
   ro.progress = !a.quiet;

@@ -3,6 +3,7 @@
 // target, and whatever the user had at that path survives until the new file is complete.
 #pragma once
 
+#include <cstdint>
 #include <cstdio>
 #include <string>
 
@@ -31,6 +32,9 @@ class AtomicFile {
   std::string temp_;
   std::FILE* f_ = nullptr;
   bool committed_ = false;
+  uint64_t written_ = 0;  // bytes handed to write()
+  uint64_t flushed_ = 0;  // bytes whose writeback to disk has been started
+  void start_writeback();
   void fail_sync(int err) const;  // err: an fsync's errno, 0 when it succeeded
 };
 

@@ -2,10 +2,14 @@
 // and bad lines reported with their line numbers.
 #include <gtest/gtest.h>
 
+#include <climits>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <vector>
 
 #include "common/test_paths.h"
 #include "core/events/formats/npy.h"
@@ -69,6 +73,54 @@ TEST(Text, RoundTripMicrosecondsAndSecondsWithLabels) {
       EXPECT_EQ(back.p, ev.p);
       EXPECT_EQ(back.label, ev.label);
     }
+}
+
+// The writer's own decimal formatting, line by line against snprintf: every digit count of the
+// time (negative ones, the extremes of int64) and of the uint16 columns, in both time units.
+TEST(Text, LinesMatchPrintfForEveryDigitCount) {
+  std::vector<int64_t> times = {0, -1, INT64_MIN + 1, INT64_MAX, 1600000000000000};
+  for (int64_t p = 1; p <= INT64_MAX / 10; p *= 10)
+    for (int64_t v : {p - 1, p, p + 1, 9 * p + (p - 1)}) times.insert(times.end(), {v, -v});
+  const uint16_t small[] = {0, 1, 9, 10, 11, 99, 100, 101, 999, 1000, 1001, 9999, 10000, 65535};
+  EventStream ev;
+  ev.sensor = {65535, 65535};
+  size_t k = 0;
+  for (int64_t t : times)
+    for (uint16_t v : small) {
+      const uint16_t w = small[k++ % std::size(small)];
+      ev.t.push_back(t), ev.x.push_back(v), ev.y.push_back(w), ev.p.push_back(uint8_t(k % 2));
+      ev.label.push_back(small[(k * 5) % std::size(small)]);
+    }
+  std::string dir = test::scratch_dir();
+  for (std::string unit : {"us", "s"}) {
+    WriteOptions o;
+    o.time_unit = unit;
+    Recording r;
+    r.events = ev;
+    const std::string path = dir + "/digits_" + unit + ".txt";
+    write_recording(path, r, o);
+    std::ifstream f(path);
+    std::string line;
+    size_t i = 0;
+    while (std::getline(f, line)) {
+      if (line.empty() || line[0] == '#') continue;
+      ASSERT_LT(i, ev.size());
+      char want[96];
+      const int64_t t = ev.t[i];
+      if (unit == "us") {
+        std::snprintf(want, sizeof want, "%lld %u %u %u %u", static_cast<long long>(t), ev.x[i],
+                      ev.y[i], ev.p[i], ev.label[i]);
+      } else {
+        const unsigned long long a =
+            t < 0 ? 0ull - static_cast<unsigned long long>(t) : static_cast<unsigned long long>(t);
+        std::snprintf(want, sizeof want, "%s%llu.%06llu %u %u %u %u", t < 0 ? "-" : "", a / 1000000,
+                      a % 1000000, ev.x[i], ev.y[i], ev.p[i], ev.label[i]);
+      }
+      EXPECT_EQ(line, want) << unit << " event " << i;
+      ++i;
+    }
+    EXPECT_EQ(i, ev.size()) << unit;
+  }
 }
 
 TEST(Text, TimeUnitRuleAndOverride) {

@@ -29,6 +29,30 @@ TEST(AtomicFile, CommitReplacesTarget) {
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1);  // no temp left
 }
 
+// A large output written in pieces (its writeback started chunk by chunk as it grows, on
+// Linux) is committed whole and in order, over an older file.
+TEST(AtomicFile, LargeOutputWrittenInPiecesIsCommittedWhole) {
+  auto dir = test::scratch_dir();
+  std::string p = dir + "/big.bin";
+  write_file_atomic(p, "old");
+  std::string want;
+  {
+    AtomicFile f(p);
+    std::string piece(size_t(1) << 20, '\0');
+    for (int i = 0; i < 19; ++i) {  // 19 MiB plus a ragged end: several chunks and a rest
+      for (size_t j = 0; j < piece.size(); ++j) piece[j] = char((j * 31 + size_t(i) * 7) & 0xff);
+      f.write(piece);
+      want += piece;
+      EXPECT_EQ(slurp(p), "old");
+    }
+    f.write("tail");
+    want += "tail";
+    f.commit();
+  }
+  EXPECT_EQ(slurp(p), want);
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), {}), 1);
+}
+
 TEST(AtomicFile, AbandonedWriteKeepsOldFileAndLeavesNoTemp) {
   auto dir = test::scratch_dir();
   std::string p = dir + "/out.bin";

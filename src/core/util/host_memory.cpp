@@ -1,4 +1,4 @@
-#include "train/host_memory.h"
+#include "core/util/host_memory.h"
 
 #include <cstdlib>  // defines __GLIBC__ where the C library is glibc
 
@@ -6,7 +6,7 @@
 #include <malloc.h>
 #endif
 
-namespace spikems::train {
+namespace spikems {
 
 bool keep_freed_memory() {
 #if defined(__GLIBC__)
@@ -18,4 +18,4 @@ bool keep_freed_memory() {
 #endif
 }
 
-}  // namespace spikems::train
+}  // namespace spikems

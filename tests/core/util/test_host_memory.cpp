@@ -1,4 +1,4 @@
-// keep_freed_memory (train/host_memory.h): a large block comes from the heap, not from a fresh
+// keep_freed_memory (core/util/host_memory.h): a large block comes from the heap, not from a fresh
 // mapping, and its memory stays in the process after free (so the next step's tensors reuse
 // those pages instead of faulting in and zeroing new ones).
 #include <gtest/gtest.h>
@@ -6,13 +6,13 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "train/host_memory.h"
+#include "core/util/host_memory.h"
 
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
 
-namespace spikems::train {
+namespace spikems {
 namespace {
 
 TEST(HostMemory, LargeBlocksComeFromTheHeapAndStayAfterFree) {
@@ -38,4 +38,4 @@ TEST(HostMemory, LargeBlocksComeFromTheHeapAndStayAfterFree) {
 }
 
 }  // namespace
-}  // namespace spikems::train
+}  // namespace spikems
