@@ -70,8 +70,12 @@ void ModelSpec::check_input_size(int h, int w, const std::string& src) const {
 
 void ModelSpec::validate(const std::string& src) const {
   if (layers.empty()) fail(src, "", "model has no layers");
-  if (!(time_step_ms > 0) || time_step_ms > 1000)
-    fail(src, "", "time step must be in (0, 1000] ms");
+  // The runtime steps in whole microseconds (Segmenter): a step it would round is refused.
+  if (!(time_step_ms >= 0.001) || time_step_ms > 1000 ||
+      std::abs(time_step_ms * 1000 - std::round(time_step_ms * 1000)) > 1e-6)
+    fail(src, "",
+         "time step must be a whole number of microseconds from 0.001 to 1000 ms, not " +
+             std::to_string(time_step_ms) + " ms");
   if (input_width < 0 || input_height < 0 || input_width > 65535 || input_height > 65535)
     fail(src, "", "input size out of range");
   if (train_width < 0 || train_height < 0 || train_width > 65535 || train_height > 65535 ||
@@ -413,6 +417,22 @@ nlohmann::json spec_to_json(const ModelSpec& s) {
 
 ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
   ModelSpec s;
+  // Fields of a number type must hold one: nlohmann converts 0.5 and true to an int, and true to
+  // a float, without a word, so "stride": 0.5 would load as a stride of 0.
+  auto typed = [&](const nlohmann::json& o, std::initializer_list<const char*> keys, bool integer,
+                   const std::string& where) {
+    if (!o.is_object()) fail(src, where, "not a JSON object");
+    for (const char* key : keys)
+      if (o.contains(key) && !(integer ? o[key].is_number_integer() : o[key].is_number()))
+        fail(src, where,
+             std::string("'") + key + "' must be " + (integer ? "an integer" : "a number") +
+                 ", not " + o[key].dump());
+  };
+  typed(j,
+        {"input_width", "input_height", "train_width", "train_height", "output_gate_steps",
+         "ann_history"},
+        true, "model spec");
+  typed(j, {"time_step_ms"}, false, "model spec");
   try {
     s.name = j.value("name", "spikems");
     s.type =
@@ -429,6 +449,13 @@ ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
     for (size_t k = 0; k < j.at("layers").size(); ++k) {
       const auto& lj = j["layers"][k];
       std::string where = "layer " + std::to_string(k);
+      typed(lj,
+            {"in_channels", "out_channels", "kernel", "stride", "padding", "output_padding",
+             "skip_from"},
+            true, where);
+      if (lj.contains("neuron"))
+        typed(lj["neuron"], {"theta", "tau_s", "tau_r", "scale_ref", "tau_rho", "scale_rho"}, false,
+              where + " neuron");
       LayerSpec l;
       l.kind = parse_enum<LayerKind>(
           lj, "kind", {{"conv", LayerKind::Conv}, {"conv_transpose", LayerKind::ConvTranspose}},
@@ -474,7 +501,10 @@ ModelSpec spec_from_json(const nlohmann::json& j, const std::string& src) {
 }
 
 ModelSpec load_model(const std::string& path) {
-  SafeTensors st = read_safetensors(path);
+  return model_from_safetensors(read_safetensors(path), path);
+}
+
+ModelSpec model_from_safetensors(const SafeTensors& st, const std::string& path) {
   auto fmt = st.metadata.find("format");
   if (fmt == st.metadata.end() || fmt->second != "spikems-model")
     fail(path, "",
@@ -486,9 +516,12 @@ ModelSpec load_model(const std::string& path) {
          "model file version " + (ver == st.metadata.end() ? std::string("?") : ver->second) +
              " is not supported (this spikems reads version " +
              std::to_string(kModelFormatVersion) + ")");
+  auto spec = st.metadata.find("spec");
+  if (spec == st.metadata.end())
+    fail(path, "", "metadata 'spec' (the network's layers) is missing");
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(st.metadata.at("spec"));
+    j = nlohmann::json::parse(spec->second);
   } catch (const std::exception& e) {
     fail(path, "metadata 'spec'", std::string("not valid JSON: ") + e.what());
   }

@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "core/model/safetensors.h"
+
 namespace spikems {
 
 inline constexpr int kModelFormatVersion = 1;
@@ -162,6 +164,8 @@ ModelSpec ann2d_architecture(const std::vector<int>& widths = {16, 32, 64}, bool
                              const std::vector<int>& skip_levels = {}, int history = 0);
 
 ModelSpec load_model(const std::string& path);
+// The same from a parsed file (path names it in errors): what load_model does after reading.
+ModelSpec model_from_safetensors(const SafeTensors& st, const std::string& path);
 void save_model(const std::string& path, const ModelSpec& spec);  // atomic
 
 nlohmann::json spec_to_json(const ModelSpec& spec);  // without weights

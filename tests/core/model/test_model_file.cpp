@@ -224,6 +224,35 @@ TEST(ModelFile, RejectsForeignVersionAndShapeMismatch) {
   expect_load_error(dir + "/s.safetensors", "layers.1.weight");
 }
 
+// Number fields hold numbers of their type (nlohmann would read 0.5 or true as an int), the
+// spec is there, and the time step is one the runtime can run (whole microseconds).
+TEST(ModelFile, RefusesMistypedFieldsAMissingSpecAndRoundedSteps) {
+  auto dir = test::scratch_dir();
+  save_model(dir + "/ok.safetensors", small_model());
+  const SafeTensors good = read_safetensors(dir + "/ok.safetensors");
+  const nlohmann::json spec = nlohmann::json::parse(good.metadata.at("spec"));
+  auto with = [&](const std::string& pointer, const nlohmann::json& v) {
+    SafeTensors st = good;
+    nlohmann::json j = spec;
+    j[nlohmann::json::json_pointer(pointer)] = v;
+    st.metadata["spec"] = j.dump();
+    write_safetensors(dir + "/m.safetensors", st);
+    return dir + "/m.safetensors";
+  };
+  expect_load_error(with("/layers/1/stride", 0.5), "'stride' must be an integer, not 0.5");
+  expect_load_error(with("/layers/0/kernel", true), "'kernel' must be an integer");
+  expect_load_error(with("/input_width", 64.5), "'input_width' must be an integer");
+  expect_load_error(with("/layers/2/neuron/theta", true), "'theta' must be a number, not true");
+  expect_load_error(with("/layers/3/neuron", 7), "not a JSON object");
+  expect_load_error(with("/time_step_ms", 0.0005), "whole number of microseconds");
+  expect_load_error(with("/time_step_ms", 1.0005), "whole number of microseconds");
+  EXPECT_EQ(load_model(with("/time_step_ms", 0.25)).time_step_ms, 0.25);  // 250 us: fine
+  SafeTensors st = good;
+  st.metadata.erase("spec");
+  write_safetensors(dir + "/n.safetensors", st);
+  expect_load_error(dir + "/n.safetensors", "'spec' (the network's layers) is missing");
+}
+
 TEST(ModelFile, ValidateRejectsBrokenChainAndNaN) {
   ModelSpec s = small_model();
   s.layers[2].in_channels = 31;
