@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <numbers>
 
+#include <nlohmann/json.hpp>
+
 #include "core/sim/image_texture.h"
 
 namespace spikems::sim {
@@ -194,25 +196,27 @@ std::vector<uint16_t> Scene::moving_ids() const {
 }
 
 std::string Scene::describe_json() const {
-  std::string out = "[";
+  // nlohmann writes every double in full and a non-finite one as null: the JSON stays valid
+  // whatever the scene holds.
+  nlohmann::json out = nlohmann::json::array();
+  auto r4 = [](double v) { return std::isfinite(v) ? std::round(v * 1e4) / 1e4 : v; };
   for (const auto& sh : shapes) {
-    char buf[384];
     const double t0 = sh.motion.t_ref;
     Pose p = sh.motion.at(t0);
     // Speed at t_ref (central difference: includes sway, arcs and gravity).
     double speed = (sh.motion.at(t0 + 1e-4).t - sh.motion.at(t0 - 1e-4).t).norm() / 2e-4;
-    std::snprintf(buf, sizeof buf,
-                  "%s{\"id\":%u,\"shape\":\"%s\",\"half\":[%.4f,%.4f,%.4f],"
-                  "\"position_at_t_ref\":[%.4f,%.4f,%.4f],\"speed\":%.4f,\"motion\":\"%s\","
-                  "\"texture\":\"%s\"}",
-                  out.size() > 1 ? "," : "", unsigned(sh.id), sh.label.c_str(), sh.half.x,
-                  sh.half.y, sh.half.z, p.t.x, p.t.y, p.t.z, speed, sh.motion_kind.c_str(),
-                  sh.kind == ShapeKind::Net
-                      ? "none"
-                      : texture_kind_name(textures[size_t(sh.texture)].params().kind));
-    out += buf;
+    out.push_back(
+        {{"id", unsigned(sh.id)},
+         {"shape", sh.label},
+         {"half", {r4(sh.half.x), r4(sh.half.y), r4(sh.half.z)}},
+         {"position_at_t_ref", {r4(p.t.x), r4(p.t.y), r4(p.t.z)}},
+         {"speed", r4(speed)},
+         {"motion", sh.motion_kind},
+         {"texture", sh.kind == ShapeKind::Net
+                         ? "none"
+                         : texture_kind_name(textures[size_t(sh.texture)].params().kind)}});
   }
-  return out + "]";
+  return out.dump();
 }
 
 Scene make_random_scene(const SimConfig& c, const Camera& cam, std::mt19937_64& rng) {

@@ -2,10 +2,12 @@
 
 #include <toml++/toml.h>
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "core/sim/image_texture.h"
 #include "core/sim/texture.h"
@@ -209,6 +211,8 @@ SimConfig parse_sim_config(const std::string& text, const std::string& source,
     auto s = sec("time");
     double dur = double(c.duration_us) * 1e-6;
     s.num("duration_s", dur);
+    // Checked before the conversion: llround of 1e300 or NaN is undefined.
+    if (!(dur > 0 && dur <= 1e6)) fail(source, "[time] duration_s", "must be within (0, 10^6] s");
     c.duration_us = int64_t(std::llround(dur * 1e6));
     s.integer("dt_min_us", c.dt_min_us);
     s.integer("dt_max_us", c.dt_max_us);
@@ -431,6 +435,24 @@ void validate_sim_config(const SimConfig& c, const std::string& src) {
        "must be in [0, threshold)");
   need(c.refractory_us >= 0, "[events] refractory_us", "must be >= 0");
   need(c.leak_hz >= 0 && c.shot_hz >= 0 && c.hot_pixel_hz >= 0, "[events]", "rates must be >= 0");
+  // Noise rates are per pixel: a real sensor leaks ~0.1 Hz and shows ~0.1-5 Hz of shot noise
+  // in the dark, and a hot pixel fires up to a few kHz (v2e's defaults and ranges). Far larger
+  // rates are typing errors that would run for hours (1e9 Hz: 5 ms of a 64x48 scene in 73 s).
+  need(c.leak_hz <= 100, "[events] leak_hz", "must be within [0, 100] Hz per pixel");
+  need(c.shot_hz <= 100, "[events] shot_hz", "must be within [0, 100] Hz per pixel");
+  need(c.hot_pixel_hz <= 1e4, "[events] hot_pixel_hz", "must be within [0, 10000] Hz");
+  {  // and within the caps, the noise of a whole sequence must stay a stream, not a flood
+    double pixels = double(c.width) * c.height;
+    for (const auto& [w, h] : c.sizes) pixels = std::max(pixels, double(w) * h);
+    const double per_pixel_hz = c.leak_hz + c.shot_hz + c.hot_pixel_fraction * c.hot_pixel_hz;
+    const double noise_events = per_pixel_hz * pixels * (double(c.duration_us) * 1e-6);
+    char n[32];
+    std::snprintf(n, sizeof n, "%.3g", noise_events);
+    need(noise_events <= 1e9, "[events]",
+         std::string("the noise rates would give ~") + n +
+             " noise events per sequence (more than 10^9: rates x pixels x duration); lower "
+             "leak_hz, shot_hz or hot pixels, the sensor size or the duration");
+  }
   need(c.hot_pixel_fraction >= 0 && c.hot_pixel_fraction <= 1, "[events] hot_pixel_fraction",
        "must be in [0, 1]");
   need(c.log_eps > 0, "[events] log_eps", "must be > 0");
@@ -450,6 +472,31 @@ void validate_sim_config(const SimConfig& c, const std::string& src) {
   need(c.planes >= 1 && c.planes <= 16, "[scene] planes", "must be in 1..16");
   need(c.room_width.lo > 0 && c.room_height.lo > 0 && c.room_depth.lo > 0, "[scene] room_*",
        "must be positive");
+  // Lengths, speeds and frequencies of a scene seen by a camera: each range finite and below a
+  // bound no scene needs (a room of 10^300 m overflowed the geometry to inf and NaN).
+  for (const auto& [r, key, max] :
+       std::initializer_list<std::tuple<const Range&, const char*, double>>{
+           {c.room_width, "[scene] room_width", 1e4},
+           {c.room_height, "[scene] room_height", 1e4},
+           {c.room_depth, "[scene] room_depth", 1e4},
+           {c.plane_depth, "[scene] plane_depth", 1e4},
+           {c.texture_frequency, "[scene] texture_frequency", 1e4},
+           {c.log_contrast, "[scene] log_contrast", 100},
+           {c.texture_tile_m, "[scene] texture_tile_m", 1e4},
+           {c.illumination, "[scene] illumination", 1e4},
+           {c.object_size, "[objects] size", 1e3},
+           {c.object_depth, "[objects] depth", 1e4},
+           {c.object_speed, "[objects] speed", 1e3},
+           {c.object_spin, "[objects] spin", 1e3},
+           {c.net_depth, "[occluder] net_depth", 1e4},
+           {c.net_spacing, "[occluder] net_spacing", 1e3},
+           {c.leaf_size, "[occluder] leaf_size", 1e3},
+           {c.camera_speed, "[camera] speed", 1e3},
+           {c.camera_angular_speed, "[camera] angular_speed", 1e3},
+           {c.camera_frequency_hz, "[camera] frequency_hz", 1e4},
+           {c.shake_frequency_hz, "[camera] shake_frequency_hz", 1e4}})
+    need(std::isfinite(r.lo) && std::isfinite(r.hi) && r.hi <= max, key,
+         "must be at most " + std::to_string(int64_t(max)));
   need(c.plane_depth.lo > 0.05, "[scene] plane_depth", "must be > 0.05 m");
   need(c.texture_frequency.lo >= 1, "[scene] texture_frequency", "must be >= 1");
   need(c.texture_tile_m.lo > 0, "[scene] texture_tile_m", "must be positive");

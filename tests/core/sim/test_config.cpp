@@ -42,6 +42,22 @@ TEST(SimConfig, ValuesAndErrors) {
   EXPECT_THROW(parse_sim_config("[events]\nthreshold = -1\n", "x"), Error);
   EXPECT_THROW(parse_sim_config("[scene]\ntextures = [\"plaid\"]\n", "x"), Error);
   EXPECT_THROW(parse_sim_config("[time\n", "x"), Error);
+  // Noise rates per pixel within what sensors show, and a sequence's noise within 10^9 events.
+  EXPECT_THROW(parse_sim_config("[events]\nleak_hz = 1e9\n", "x"), Error);
+  EXPECT_THROW(parse_sim_config("[events]\nshot_hz = [0.0, 1000.0]\n", "x"), Error);
+  EXPECT_THROW(parse_sim_config("[events]\nhot_pixel_fraction = 0.5\nhot_pixel_hz = 1e5\n", "x"),
+               Error);
+  EXPECT_NO_THROW(parse_sim_config("[events]\nshot_hz = 100\n", "x"));  // 9 M events in 2 s
+  try {
+    parse_sim_config(
+        "[sensor]\nwidth = 4096\nheight = 4096\n[time]\nduration_s = 60\n"
+        "[events]\nshot_hz = 50\n",
+        "x");
+    ADD_FAILURE() << "5 x 10^10 noise events per sequence must be refused";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("noise events per sequence"), std::string::npos)
+        << e.what();
+  }
   SimConfig n = preset_config("mod");
   apply_noise_setting(n, "clean");
   EXPECT_EQ(n.threshold_sigma, 0);
