@@ -2,10 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <numbers>
-
-#include <nlohmann/json.hpp>
 
 #include "core/sim/image_texture.h"
 
@@ -195,9 +192,9 @@ std::vector<uint16_t> Scene::moving_ids() const {
   return ids;
 }
 
-std::string Scene::describe_json() const {
-  // nlohmann writes every double in full and a non-finite one as null: the JSON stays valid
-  // whatever the scene holds.
+nlohmann::json Scene::describe() const {
+  // Built as JSON, not printed: nlohmann writes every double in full and a non-finite one as
+  // null, so the metadata stays valid whatever the scene holds.
   nlohmann::json out = nlohmann::json::array();
   auto r4 = [](double v) { return std::isfinite(v) ? std::round(v * 1e4) / 1e4 : v; };
   for (const auto& sh : shapes) {
@@ -216,7 +213,7 @@ std::string Scene::describe_json() const {
                          ? "none"
                          : texture_kind_name(textures[size_t(sh.texture)].params().kind)}});
   }
-  return out.dump();
+  return out;
 }
 
 Scene make_random_scene(const SimConfig& c, const Camera& cam, std::mt19937_64& rng) {

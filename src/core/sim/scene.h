@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <string>
 #include <vector>
@@ -76,8 +77,8 @@ struct Scene {
   std::string camera_motion = "handheld";  // metadata: the kind drawn for the camera
 
   std::vector<uint16_t> moving_ids() const;
-  // One line per shape, for recording metadata (JSON array text).
-  std::string describe_json() const;
+  // One object per shape, for recording metadata (a JSON array).
+  nlohmann::json describe() const;
 };
 
 // A random scene drawn from the config ranges with the sequence's own generator.

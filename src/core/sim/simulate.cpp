@@ -264,7 +264,7 @@ Recording simulate_scene(const Scene& scene, const Camera& cam, const SimConfig&
   meta["pose_convention"] =
       "camera/object to world; world = initial camera frame (x right, y down, z forward)";
   meta["camera_motion"] = scene.camera_motion;
-  meta["objects"] = nlohmann::json::parse(scene.describe_json());
+  meta["objects"] = scene.describe();
   rec.metadata_json = meta.dump();
   if (stats) *stats = st;
   return rec;
