@@ -3,8 +3,9 @@
 // Adam) of the SpikeMS network at 128x128, batch 8, T = 40 steps (10 ms window + the default
 // config's 30 ms warm-up), with the shipped model's weights (its real firing rates) and with
 // weights initialised on the same batch to a range of firing rates. Prints each layer's input
-// density, the step times and their ratio. Then (--layers) the crossover density of each layer
-// alone (psp + synapse, forward + backward), from which `run.kernels = "auto"` takes its rule.
+// density, the step times of the dense, sparse and auto paths and their ratios. Then (--layers) the
+// crossover density of each layer alone (psp + synapse, forward + backward), from which
+// `run.kernels = "auto"` takes its rule.
 //
 // Run from the repository root (figures: docs/performance.md):
 //   build/bench_train_sparse [--data data/mod2-train] [--model models/spikems-default.safetensors]
@@ -105,10 +106,11 @@ void compare_steps(const std::string& name, const ModelSpec& spec, const BatchTe
   std::printf("%-22s", name.c_str());
   for (double v : d) std::printf(" %6.2f", 100 * v);
   std::fflush(stdout);
-  double t[2] = {0, 0}, cpu[2] = {0, 0}, loss[2] = {0, 0};
-  for (int path = 0; path < 2; ++path) {
+  double t[3] = {0, 0, 0}, cpu[3] = {0, 0, 0}, loss[3] = {0, 0, 0};
+  const KernelPath paths[3] = {KernelPath::Dense, KernelPath::Sparse, KernelPath::Auto};
+  for (int path = 0; path < 3; ++path) {
     SpikeMSNetwork net(spec);
-    net->set_kernels(path == 0 ? KernelPath::Dense : KernelPath::Sparse);
+    net->set_kernels(paths[path]);
     torch::optim::Adam opt(net->parameters(), torch::optim::AdamOptions(c.lr).amsgrad(true));
     std::vector<double> times, cpus;
     for (int r = 0; r <= reps; ++r) {  // the first step warms the allocator up, not timed
@@ -122,9 +124,9 @@ void compare_steps(const std::string& name, const ModelSpec& spec, const BatchTe
     t[path] = median(times);
     cpu[path] = median(cpus);
   }
-  std::printf(" | %8.0f %8.0f %6.2fx | %8.0f %8.0f %6.2fx | %.3g\n", 1e3 * t[0], 1e3 * t[1],
-              t[0] / t[1], 1e3 * cpu[0], 1e3 * cpu[1], cpu[0] / cpu[1],
-              std::abs(loss[0] - loss[1]) / std::max(1e-30, std::abs(loss[0])));
+  std::printf(" | %8.0f %8.0f %6.2fx %8.0f %6.2fx | %8.0f %8.0f %6.2fx | %.3g\n", 1e3 * t[0],
+              1e3 * t[1], t[0] / t[1], 1e3 * t[2], t[0] / t[2], 1e3 * cpu[0], 1e3 * cpu[1],
+              cpu[0] / cpu[1], std::abs(loss[0] - loss[1]) / std::max(1e-30, std::abs(loss[0])));
 }
 
 // One layer alone (psp + synapse, forward + backward with the input needing a gradient except
@@ -212,9 +214,10 @@ int run(const Options& o) {
       "training step (forward, loss, backward, clip, Adam): median of %d, wall ms and process "
       "CPU ms\n\n",
       o.reps);
-  std::printf("%-22s %s | %8s %8s %7s | %8s %8s %7s | %s\n", "weights",
-              "in%  L1     L2     L3     L4     L5     L6 out%", "dense", "sparse", "ratio",
-              "CPU dns", "CPU sps", "ratio", "loss rel diff");
+  // auto: run.kernels = "auto" (each layer by its rule, sparse_conv.h), as `spikems train` runs.
+  std::printf("%-22s %s | %8s %8s %7s %8s %7s | %8s %8s %7s | %s\n", "weights",
+              "in%  L1     L2     L3     L4     L5     L6 out%", "dense", "sparse", "ratio", "auto",
+              "ratio", "CPU dns", "CPU sps", "ratio", "loss rel diff");
   compare_steps("shipped model", shipped, bt, c, ts, o.reps);
   for (double rate : o.rates) {
     ModelSpec s = shipped;

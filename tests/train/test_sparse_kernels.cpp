@@ -238,7 +238,7 @@ TEST(SparseKernels, WholeNetworkForwardBackwardMatchesDense) {
   }
 }
 
-TEST(SparseKernels, AutoChoosesByInputDensity) {
+TEST(SparseKernels, AutoChoosesByLayerKindOutputsAndInputDensity) {
   torch::Tensor sparse = random_spikes({4, 1, 2, 16, 16}, 0.02, 1.0, torch::kFloat);
   torch::Tensor dense = torch::ones({4, 1, 2, 16, 16});
   EXPECT_NEAR(nonzero_density(dense), 1.0, 1e-12);
@@ -246,11 +246,28 @@ TEST(SparseKernels, AutoChoosesByInputDensity) {
   torch::Tensor half = torch::zeros({100});
   half.narrow(0, 0, 37).fill_(2.0);
   EXPECT_NEAR(nonzero_density(half), 0.37, 1e-12);
-  EXPECT_TRUE(use_sparse_path(KernelPath::Auto, sparse));
-  EXPECT_FALSE(use_sparse_path(KernelPath::Auto, dense));
-  EXPECT_TRUE(use_sparse_path(KernelPath::Sparse, dense));
-  EXPECT_FALSE(use_sparse_path(KernelPath::Dense, sparse));
-  EXPECT_FALSE(use_sparse_path(KernelPath::Sparse, sparse.to(torch::kInt32)));  // unsupported
+  // Auto: transposed convolutions by density and output channels, convolutions always dense
+  // (the crossovers measured with bench_train_sparse --layers).
+  const SynapseGeometry up{LayerKind::ConvTranspose, 2, 1, 1}, down{LayerKind::Conv, 2, 1, 0};
+  EXPECT_TRUE(use_sparse_path(KernelPath::Auto, sparse, up, 16));
+  EXPECT_TRUE(use_sparse_path(KernelPath::Auto, sparse, up, 2));
+  EXPECT_FALSE(use_sparse_path(KernelPath::Auto, dense, up, 64));
+  EXPECT_FALSE(use_sparse_path(KernelPath::Auto, sparse, down, 64));
+  torch::Tensor tenth = random_spikes({4, 1, 2, 16, 16}, 0.1, 1.0, torch::kFloat);
+  const double d = nonzero_density(tenth);
+  ASSERT_GT(d, 0.05);
+  ASSERT_LT(d, 0.12);
+  EXPECT_FALSE(use_sparse_path(KernelPath::Auto, tenth, up, 2));  // 2 outputs: up to 5 %
+  EXPECT_TRUE(use_sparse_path(KernelPath::Auto, tenth, up, 16));  // 16: up to 12 %
+  EXPECT_EQ(sparse_density_threshold(down, 16), 0.0);
+  EXPECT_EQ(sparse_density_threshold(up, 2), 0.05);
+  EXPECT_EQ(sparse_density_threshold(up, 16), 0.12);
+  EXPECT_EQ(sparse_density_threshold(up, 32), 0.18);
+  EXPECT_EQ(sparse_density_threshold(up, 64), 0.30);
+  // Forced paths ignore the rule; unsupported inputs never go sparse.
+  EXPECT_TRUE(use_sparse_path(KernelPath::Sparse, dense, down, 64));
+  EXPECT_FALSE(use_sparse_path(KernelPath::Dense, sparse, up, 16));
+  EXPECT_FALSE(use_sparse_path(KernelPath::Sparse, sparse.to(torch::kInt32), up, 16));
 }
 
 TEST(SparseKernels, ConfigKeyAndNames) {

@@ -24,7 +24,8 @@ void SpikingLayerImpl::enable_delay(bool on) {
 }
 
 torch::Tensor SpikingLayerImpl::potential(const torch::Tensor& x) {
-  if (kernels_ != KernelPath::Dense && weight.device().is_cpu() && use_sparse_path(kernels_, x))
+  if (kernels_ != KernelPath::Dense && weight.device().is_cpu() &&
+      use_sparse_path(kernels_, x, geom_, spec_.out_channels))
     return sparse_synapse_psp(x, weight, geom_, eps_, ts_);
   return synapse_forward(psp(x, eps_, ts_), weight, geom_);
 }

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/util/error.h"
+#include "core/util/simd.h"
 #include "train/neuron/psp.h"
 #include "train/synapse/conv_taps.h"
 
@@ -53,6 +54,50 @@ Taps make_taps(int64_t in, int64_t out, int64_t k, int64_t stride, int64_t pad, 
   return t;
 }
 
+// Nonzero entries of one frame: their count, then their flat indices and values. Compiled per
+// instruction set (util/simd.h): the count is a vector compare, the copy reads 16 values at a
+// time and skips blocks without a nonzero.
+template <typename S>
+SPIKEMS_INLINE int64_t count_nonzeros(const S* x, int64_t M) {
+  int64_t n = 0;
+  for (int64_t m = 0; m < M; ++m) n += x[m] != S(0);
+  return n;
+}
+template <typename S>
+SPIKEMS_INLINE void copy_nonzeros(const S* x, int64_t M, int32_t* index, S* value) {
+  constexpr int64_t kBlock = 16;
+  int64_t o = 0, m = 0;
+  for (; m + kBlock <= M; m += kBlock) {
+    int any = 0;
+    for (int64_t j = 0; j < kBlock; ++j) any |= x[m + j] != S(0);
+    if (!any) continue;
+    for (int64_t j = m; j < m + kBlock; ++j)
+      if (x[j] != S(0)) {
+        index[o] = int32_t(j);
+        value[o++] = x[j];
+      }
+  }
+  for (; m < M; ++m)
+    if (x[m] != S(0)) {
+      index[o] = int32_t(m);
+      value[o++] = x[m];
+    }
+}
+SPIKEMS_MULTIVERSION int64_t count_nonzeros_mv(const float* x, int64_t M) {
+  return count_nonzeros(x, M);
+}
+SPIKEMS_MULTIVERSION int64_t count_nonzeros_mv(const double* x, int64_t M) {
+  return count_nonzeros(x, M);
+}
+SPIKEMS_MULTIVERSION void copy_nonzeros_mv(const float* x, int64_t M, int32_t* index,
+                                           float* value) {
+  copy_nonzeros(x, M, index, value);
+}
+SPIKEMS_MULTIVERSION void copy_nonzeros_mv(const double* x, int64_t M, int32_t* index,
+                                           double* value) {
+  copy_nonzeros(x, M, index, value);
+}
+
 // Nonzero entries of each frame of x [F, M]: flat index within the frame and value; frame f owns
 // [offsets[f], offsets[f+1]).
 template <typename S>
@@ -60,26 +105,15 @@ void find_nonzeros(const S* x, int64_t F, int64_t M, std::vector<int64_t>& offse
                    std::vector<int32_t>& index, std::vector<S>& value) {
   offsets.assign(size_t(F + 1), 0);
   at::parallel_for(0, F, 1, [&](int64_t f0, int64_t f1) {
-    for (int64_t f = f0; f < f1; ++f) {
-      const S* xr = x + f * M;
-      int64_t n = 0;
-      for (int64_t m = 0; m < M; ++m) n += xr[m] != S(0);
-      offsets[size_t(f + 1)] = n;
-    }
+    for (int64_t f = f0; f < f1; ++f) offsets[size_t(f + 1)] = count_nonzeros_mv(x + f * M, M);
   });
   for (int64_t f = 0; f < F; ++f) offsets[size_t(f + 1)] += offsets[size_t(f)];
   index.resize(size_t(offsets[size_t(F)]));
   value.resize(index.size());
   at::parallel_for(0, F, 1, [&](int64_t f0, int64_t f1) {
-    for (int64_t f = f0; f < f1; ++f) {
-      const S* xr = x + f * M;
-      int64_t o = offsets[size_t(f)];
-      for (int64_t m = 0; m < M; ++m)
-        if (xr[m] != S(0)) {
-          index[size_t(o)] = int32_t(m);
-          value[size_t(o++)] = xr[m];
-        }
-    }
+    for (int64_t f = f0; f < f1; ++f)
+      copy_nonzeros_mv(x + f * M, M, index.data() + offsets[size_t(f)],
+                       value.data() + offsets[size_t(f)]);
   });
 }
 
@@ -94,8 +128,8 @@ struct Nonzeros {
 // Calls fn(v, ci, ky, kx, out_pixel) for every nonzero of frame f and every tap it reaches
 // (out_pixel = oy * W_out + ox).
 template <typename S, typename Fn>
-inline void for_each_tap(const Nonzeros<S>& nz, int64_t f, const Frame& g, const Taps& rows,
-                         const Taps& cols, Fn&& fn) {
+SPIKEMS_INLINE void for_each_tap(const Nonzeros<S>& nz, int64_t f, const Frame& g, const Taps& rows,
+                                 const Taps& cols, Fn&& fn) {
   const int64_t hw = g.h * g.w;
   for (int64_t n = nz.offsets[f]; n < nz.offsets[f + 1]; ++n) {
     const int64_t m = nz.index[n], ci = m / hw, y = (m % hw) / g.w, x = m % g.w;
@@ -116,73 +150,196 @@ inline void for_each_tap(const Nonzeros<S>& nz, int64_t f, const Frame& g, const
 //   u[t, b] = Ts * (eps * c)[t], written once in the standard layout [C_out, H_out, W_out].
 // IIR kernels keep their O(1) state per neuron; FIR kernels keep the last K frames of c.
 // No output-sized temporaries, so no zero-fill or transpose passes over the whole tensor.
+// One sample's buffers, reused across its frames (sizes set by the caller).
 template <typename S>
-void forward_fused(const Nonzeros<S>& nz, const S* wt, S* u, int64_t T, int64_t B, const Frame& g,
-                   const Taps& rows, const Taps& cols, const TemporalKernel& k, S scale) {
+struct SampleBuffers {
+  std::vector<S> a, q, r, hist;
+};
+
+template <typename S>
+SPIKEMS_INLINE void forward_sample(const Nonzeros<S>& nz, const S* wt, S* u, int64_t T, int64_t B,
+                                   int64_t b, const Frame& g, const Taps& rows, const Taps& cols,
+                                   const TemporalKernel& k, S scale, SampleBuffers<S>& buf) {
   const int64_t P = g.ho * g.wo, co = g.co, N = co * P;
   const bool fir = k.form == TemporalKernel::Form::FIR;
   const int64_t taps = fir ? int64_t(k.taps.size()) : 0;
   const int64_t K = fir ? std::max<int64_t>(1, std::min<int64_t>(taps, T)) : 0;
   const S a = S(k.decay), gain = S(scale * k.gain);
-  at::parallel_for(0, B, 1, [&](int64_t b0, int64_t b1) {
-    std::vector<S> cbuf(static_cast<size_t>(N)), q(fir ? 0 : size_t(N)), r(fir ? 0 : size_t(N)),
-        hist(size_t(K * N));
-    for (int64_t b = b0; b < b1; ++b) {
-      std::fill(q.begin(), q.end(), S(0));
-      std::fill(r.begin(), r.end(), S(0));
-      for (int64_t t = 0; t < T; ++t) {
-        const int64_t f = t * B + b;
-        std::fill(cbuf.begin(), cbuf.end(), S(0));
-        for_each_tap(nz, f, g, rows, cols, [&](S v, int64_t ci, int64_t ky, int64_t kx, int64_t p) {
-          S* __restrict o = cbuf.data() + p * co;
-          const S* __restrict w = wt + ((ci * g.k + ky) * g.k + kx) * co;
-          for (int64_t j = 0; j < co; ++j) o[j] += v * w[j];
-        });
-        S* __restrict y = u + f * N;
-        if (fir) {
-          // hist row t % K = c[t] in the standard layout; y = scale * sum_i h[i] c[t - i].
-          S* __restrict cur = hist.data() + (t % K) * N;
-          for (int64_t c = 0; c < co; ++c)
-            for (int64_t p = 0; p < P; ++p) cur[c * P + p] = cbuf[size_t(p * co + c)];
-          for (int64_t n = 0; n < N; ++n) y[n] = S(0);
-          for (int64_t i = 0; i < taps && i < K && i <= t; ++i) {
-            const S h = S(k.taps[size_t(i)]);
-            if (h == S(0)) continue;
-            const S* __restrict xr = hist.data() + ((t - i) % K) * N;
-            for (int64_t n = 0; n < N; ++n) y[n] += h * xr[n];
+  std::vector<S>&cbuf = buf.a, &q = buf.q, &r = buf.r, &hist = buf.hist;
+  std::fill(q.begin(), q.end(), S(0));
+  std::fill(r.begin(), r.end(), S(0));
+  for (int64_t t = 0; t < T; ++t) {
+    const int64_t f = t * B + b;
+    std::fill(cbuf.begin(), cbuf.end(), S(0));
+    for_each_tap(nz, f, g, rows, cols,
+                 [&](S v, int64_t ci, int64_t ky, int64_t kx, int64_t p) SPIKEMS_INLINE_LAMBDA {
+                   S* __restrict o = cbuf.data() + p * co;
+                   const S* __restrict w = wt + ((ci * g.k + ky) * g.k + kx) * co;
+                   for (int64_t j = 0; j < co; ++j) o[j] += v * w[j];
+                 });
+    S* __restrict y = u + f * N;
+    if (fir) {
+      // hist row t % K = c[t] in the standard layout; y = scale * sum_i h[i] c[t - i].
+      S* __restrict cur = hist.data() + (t % K) * N;
+      for (int64_t c = 0; c < co; ++c)
+        for (int64_t p = 0; p < P; ++p) cur[c * P + p] = cbuf[size_t(p * co + c)];
+      for (int64_t n = 0; n < N; ++n) y[n] = S(0);
+      for (int64_t i = 0; i < taps && i < K && i <= t; ++i) {
+        const S h = S(k.taps[size_t(i)]);
+        if (h == S(0)) continue;
+        const S* __restrict xr = hist.data() + ((t - i) % K) * N;
+        for (int64_t n = 0; n < N; ++n) y[n] += h * xr[n];
+      }
+      for (int64_t n = 0; n < N; ++n) y[n] *= scale;
+    } else {
+      S* __restrict qp = q.data();
+      S* __restrict rp = r.data();
+      for (int64_t c = 0; c < co; ++c) {
+        const S* __restrict xc = cbuf.data() + c;
+        S* __restrict yc = y + c * P;
+        S* __restrict qc = qp + c * P;
+        S* __restrict rc = rp + c * P;
+        if (k.form == TemporalKernel::Form::Alpha) {
+          for (int64_t p = 0; p < P; ++p) {
+            rc[p] = a * (rc[p] + qc[p]);
+            qc[p] = a * qc[p] + xc[p * co];
+            yc[p] = gain * rc[p];
           }
-          for (int64_t n = 0; n < N; ++n) y[n] *= scale;
-        } else {
-          S* __restrict qp = q.data();
-          S* __restrict rp = r.data();
-          for (int64_t c = 0; c < co; ++c) {
-            const S* __restrict xc = cbuf.data() + c;
-            S* __restrict yc = y + c * P;
-            S* __restrict qc = qp + c * P;
-            S* __restrict rc = rp + c * P;
-            if (k.form == TemporalKernel::Form::Alpha) {
-              for (int64_t p = 0; p < P; ++p) {
-                rc[p] = a * (rc[p] + qc[p]);
-                qc[p] = a * qc[p] + xc[p * co];
-                yc[p] = gain * rc[p];
-              }
-            } else if (k.form == TemporalKernel::Form::AlphaLead) {
-              for (int64_t p = 0; p < P; ++p) {
-                qc[p] = a * qc[p] + xc[p * co];
-                rc[p] = a * (rc[p] + qc[p]);
-                yc[p] = gain * rc[p];
-              }
-            } else {  // DelayedExp
-              for (int64_t p = 0; p < P; ++p) {
-                yc[p] = gain * qc[p];
-                qc[p] = a * qc[p] + xc[p * co];
-              }
-            }
+        } else if (k.form == TemporalKernel::Form::AlphaLead) {
+          for (int64_t p = 0; p < P; ++p) {
+            qc[p] = a * qc[p] + xc[p * co];
+            rc[p] = a * (rc[p] + qc[p]);
+            yc[p] = gain * rc[p];
+          }
+        } else {  // DelayedExp
+          for (int64_t p = 0; p < P; ++p) {
+            yc[p] = gain * qc[p];
+            qc[p] = a * qc[p] + xc[p * co];
           }
         }
       }
     }
+  }
+}
+// Compiled per instruction set (util/simd.h): the scatter's axpy and the filter's loops are
+// vector loops whose width follows the CPU (the LibTorch operations of the dense path are too).
+SPIKEMS_MULTIVERSION void forward_sample_mv(const Nonzeros<float>& nz, const float* wt, float* u,
+                                            int64_t T, int64_t B, int64_t b, const Frame& g,
+                                            const Taps& rows, const Taps& cols,
+                                            const TemporalKernel& k, float scale,
+                                            SampleBuffers<float>& buf) {
+  forward_sample(nz, wt, u, T, B, b, g, rows, cols, k, scale, buf);
+}
+SPIKEMS_MULTIVERSION void forward_sample_mv(const Nonzeros<double>& nz, const double* wt, double* u,
+                                            int64_t T, int64_t B, int64_t b, const Frame& g,
+                                            const Taps& rows, const Taps& cols,
+                                            const TemporalKernel& k, double scale,
+                                            SampleBuffers<double>& buf) {
+  forward_sample(nz, wt, u, T, B, b, g, rows, cols, k, scale, buf);
+}
+
+// Forward, fused per sample b (samples in parallel), time ascending:
+//   c = scatter of frame (t, b) into a channels-last frame buffer (the weight column of a tap
+//       is C_out contiguous values: a vectorised axpy), then
+//   u[t, b] = Ts * (eps * c)[t], written once in the standard layout [C_out, H_out, W_out].
+// IIR kernels keep their O(1) state per neuron; FIR kernels keep the last K frames of c.
+// No output-sized temporaries, so no zero-fill or transpose passes over the whole tensor.
+template <typename S>
+void forward_fused(const Nonzeros<S>& nz, const S* wt, S* u, int64_t T, int64_t B, const Frame& g,
+                   const Taps& rows, const Taps& cols, const TemporalKernel& k, S scale) {
+  const int64_t N = g.co * g.ho * g.wo;
+  const bool fir = k.form == TemporalKernel::Form::FIR;
+  const int64_t taps = fir ? int64_t(k.taps.size()) : 0;
+  const int64_t K = fir ? std::max<int64_t>(1, std::min<int64_t>(taps, T)) : 0;
+  at::parallel_for(0, B, 1, [&](int64_t b0, int64_t b1) {
+    SampleBuffers<S> buf;
+    buf.a.resize(size_t(N));
+    buf.q.resize(fir ? 0 : size_t(N));
+    buf.r.resize(fir ? 0 : size_t(N));
+    buf.hist.resize(size_t(K * N));
+    for (int64_t b = b0; b < b1; ++b)
+      forward_sample_mv(nz, wt, u, T, B, b, g, rows, cols, k, scale, buf);
   });
+}
+
+// Backward, fused per sample b, time descending:
+//   gc[t, b] = Ts * (eps^T * gu)[t]   (the filter run backwards; written to `gc` when the input
+//                                      gradient needs it, standard layout)
+//   dwt[ci, ky, kx, :] += v * gc[t, b, :, oy, ox] for the frame's nonzeros (from a channels-last
+//                                      copy of the frame, so the gather is a vectorised axpy).
+// One weight accumulator per sample, summed in sample order (deterministic).
+template <typename S>
+SPIKEMS_INLINE void backward_sample(const Nonzeros<S>& nz, const S* gu, S* gc, S* dw, int64_t T,
+                                    int64_t B, int64_t b, const Frame& g, const Taps& rows,
+                                    const Taps& cols, const TemporalKernel& k, S scale,
+                                    SampleBuffers<S>& buf) {
+  const int64_t P = g.ho * g.wo, co = g.co, N = co * P;
+  const bool fir = k.form == TemporalKernel::Form::FIR;
+  const int64_t K = fir ? int64_t(k.taps.size()) : 0;
+  const S a = S(k.decay), gain = S(scale * k.gain);
+  std::vector<S>&frame = buf.a, &cl = buf.hist, &q = buf.q, &r = buf.r;
+  std::fill(q.begin(), q.end(), S(0));
+  std::fill(r.begin(), r.end(), S(0));
+  for (int64_t t = T - 1; t >= 0; --t) {
+    const int64_t f = t * B + b;
+    S* __restrict y = gc ? gc + f * N : frame.data();
+    const S* __restrict x = gu + f * N;
+    if (fir) {
+      for (int64_t n = 0; n < N; ++n) y[n] = S(0);
+      for (int64_t i = 0; i < K && t + i < T; ++i) {
+        const S h = S(k.taps[size_t(i)]);
+        if (h == S(0)) continue;
+        const S* __restrict xr = gu + ((t + i) * B + b) * N;
+        for (int64_t n = 0; n < N; ++n) y[n] += h * xr[n];
+      }
+      for (int64_t n = 0; n < N; ++n) y[n] *= scale;
+    } else if (k.form == TemporalKernel::Form::Alpha) {
+      S* __restrict rp = r.data();
+      S* __restrict qp = q.data();
+      for (int64_t n = 0; n < N; ++n) {
+        rp[n] = a * (rp[n] + qp[n]);
+        qp[n] = a * qp[n] + x[n];
+        y[n] = gain * rp[n];
+      }
+    } else if (k.form == TemporalKernel::Form::AlphaLead) {
+      S* __restrict rp = r.data();
+      S* __restrict qp = q.data();
+      for (int64_t n = 0; n < N; ++n) {
+        qp[n] = a * qp[n] + x[n];
+        rp[n] = a * (rp[n] + qp[n]);
+        y[n] = gain * rp[n];
+      }
+    } else {
+      S* __restrict qp = q.data();
+      for (int64_t n = 0; n < N; ++n) {
+        y[n] = gain * qp[n];
+        qp[n] = a * qp[n] + x[n];
+      }
+    }
+    if (nz.offsets[f] == nz.offsets[f + 1] || dw == nullptr) continue;
+    for (int64_t c = 0; c < co; ++c)
+      for (int64_t p = 0; p < P; ++p) cl[size_t(p * co + c)] = y[c * P + p];
+    for_each_tap(nz, f, g, rows, cols,
+                 [&](S v, int64_t ci, int64_t ky, int64_t kx, int64_t p) SPIKEMS_INLINE_LAMBDA {
+                   const S* __restrict gr = cl.data() + p * co;
+                   S* __restrict w = dw + ((ci * g.k + ky) * g.k + kx) * co;
+                   for (int64_t j = 0; j < co; ++j) w[j] += v * gr[j];
+                 });
+  }
+}
+SPIKEMS_MULTIVERSION void backward_sample_mv(const Nonzeros<float>& nz, const float* gu, float* gc,
+                                             float* dw, int64_t T, int64_t B, int64_t b,
+                                             const Frame& g, const Taps& rows, const Taps& cols,
+                                             const TemporalKernel& k, float scale,
+                                             SampleBuffers<float>& buf) {
+  backward_sample(nz, gu, gc, dw, T, B, b, g, rows, cols, k, scale, buf);
+}
+SPIKEMS_MULTIVERSION void backward_sample_mv(const Nonzeros<double>& nz, const double* gu,
+                                             double* gc, double* dw, int64_t T, int64_t B,
+                                             int64_t b, const Frame& g, const Taps& rows,
+                                             const Taps& cols, const TemporalKernel& k,
+                                             double scale, SampleBuffers<double>& buf) {
+  backward_sample(nz, gu, gc, dw, T, B, b, g, rows, cols, k, scale, buf);
 }
 
 // Backward, fused per sample b, time descending:
@@ -195,60 +352,19 @@ template <typename S>
 void backward_fused(const Nonzeros<S>& nz, const S* gu, S* gc, S* dwt, int64_t T, int64_t B,
                     const Frame& g, const Taps& rows, const Taps& cols, const TemporalKernel& k,
                     S scale) {
-  const int64_t P = g.ho * g.wo, co = g.co, N = co * P;
-  const int64_t wsize = g.ci * g.k * g.k * co;
+  const int64_t N = g.co * g.ho * g.wo;
+  const int64_t wsize = g.ci * g.k * g.k * g.co;
   const bool fir = k.form == TemporalKernel::Form::FIR;
-  const int64_t K = fir ? int64_t(k.taps.size()) : 0;
-  const S a = S(k.decay), gain = S(scale * k.gain);
   std::vector<S> acc(size_t(B * wsize), S(0));
   at::parallel_for(0, B, 1, [&](int64_t b0, int64_t b1) {
-    std::vector<S> frame(static_cast<size_t>(N)), cl(static_cast<size_t>(N)),
-        q(fir ? 0 : size_t(N)), r(fir ? 0 : size_t(N));
-    for (int64_t b = b0; b < b1; ++b) {
-      std::fill(q.begin(), q.end(), S(0));
-      std::fill(r.begin(), r.end(), S(0));
-      S* dw = acc.data() + b * wsize;
-      for (int64_t t = T - 1; t >= 0; --t) {
-        const int64_t f = t * B + b;
-        S* __restrict y = gc ? gc + f * N : frame.data();
-        const S* __restrict x = gu + f * N;
-        if (fir) {
-          for (int64_t n = 0; n < N; ++n) y[n] = S(0);
-          for (int64_t i = 0; i < K && t + i < T; ++i) {
-            const S h = S(k.taps[size_t(i)]);
-            if (h == S(0)) continue;
-            const S* __restrict xr = gu + ((t + i) * B + b) * N;
-            for (int64_t n = 0; n < N; ++n) y[n] += h * xr[n];
-          }
-          for (int64_t n = 0; n < N; ++n) y[n] *= scale;
-        } else if (k.form == TemporalKernel::Form::Alpha) {
-          for (int64_t n = 0; n < N; ++n) {
-            r[size_t(n)] = a * (r[size_t(n)] + q[size_t(n)]);
-            q[size_t(n)] = a * q[size_t(n)] + x[n];
-            y[n] = gain * r[size_t(n)];
-          }
-        } else if (k.form == TemporalKernel::Form::AlphaLead) {
-          for (int64_t n = 0; n < N; ++n) {
-            q[size_t(n)] = a * q[size_t(n)] + x[n];
-            r[size_t(n)] = a * (r[size_t(n)] + q[size_t(n)]);
-            y[n] = gain * r[size_t(n)];
-          }
-        } else {
-          for (int64_t n = 0; n < N; ++n) {
-            y[n] = gain * q[size_t(n)];
-            q[size_t(n)] = a * q[size_t(n)] + x[n];
-          }
-        }
-        if (nz.offsets[f] == nz.offsets[f + 1] || dwt == nullptr) continue;
-        for (int64_t c = 0; c < co; ++c)
-          for (int64_t p = 0; p < P; ++p) cl[size_t(p * co + c)] = y[c * P + p];
-        for_each_tap(nz, f, g, rows, cols, [&](S v, int64_t ci, int64_t ky, int64_t kx, int64_t p) {
-          const S* __restrict gr = cl.data() + p * co;
-          S* __restrict w = dw + ((ci * g.k + ky) * g.k + kx) * co;
-          for (int64_t j = 0; j < co; ++j) w[j] += v * gr[j];
-        });
-      }
-    }
+    SampleBuffers<S> buf;
+    buf.a.resize(size_t(N));
+    buf.hist.resize(size_t(N));
+    buf.q.resize(fir ? 0 : size_t(N));
+    buf.r.resize(fir ? 0 : size_t(N));
+    for (int64_t b = b0; b < b1; ++b)
+      backward_sample_mv(nz, gu, gc, dwt ? acc.data() + b * wsize : nullptr, T, B, b, g, rows, cols,
+                         k, scale, buf);
   });
   if (dwt == nullptr) return;
   for (int64_t i = 0; i < wsize; ++i) {
@@ -449,12 +565,19 @@ double nonzero_density(const torch::Tensor& x_in) {
   return double(total) / double(n);
 }
 
-bool use_sparse_path(KernelPath path, const torch::Tensor& s) {
+double sparse_density_threshold(const SynapseGeometry& g, int64_t out_channels) {
+  if (g.kind != LayerKind::ConvTranspose) return 0.0;
+  return out_channels <= 4 ? 0.05 : out_channels <= 16 ? 0.12 : out_channels <= 32 ? 0.18 : 0.30;
+}
+
+bool use_sparse_path(KernelPath path, const torch::Tensor& s, const SynapseGeometry& g,
+                     int64_t out_channels) {
   if (path == KernelPath::Dense) return false;
   const bool supported = s.device().is_cpu() && s.dim() == 5 &&
                          (s.scalar_type() == torch::kFloat || s.scalar_type() == torch::kDouble);
   if (path == KernelPath::Sparse) return supported;
-  return supported && nonzero_density(s) <= kSparseDensityThreshold;
+  const double threshold = sparse_density_threshold(g, out_channels);
+  return supported && threshold > 0 && nonzero_density(s) <= threshold;
 }
 
 }  // namespace spikems::train

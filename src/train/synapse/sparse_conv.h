@@ -28,9 +28,15 @@ enum class KernelPath { Auto, Sparse, Dense };
 KernelPath parse_kernel_path(const std::string& name);  // "auto" | "sparse" | "dense"; throws
 const char* kernel_path_name(KernelPath k);
 
-// Auto uses the sparse path on CPU tensors whose input density (fraction of nonzero entries) is
-// at most this (measured with bench/bench_train_sparse.cpp; docs/performance.md).
-constexpr double kSparseDensityThreshold = 0.25;
+// Auto's rule, measured per layer on the 2-core machine (bench/bench_train_sparse.cpp --layers;
+// docs/performance.md, "Sparse synapse kernels, again"): the largest input density at which
+// the sparse path of a layer is still faster than the dense one. Convolutions: none (LibTorch's
+// strided conv2d, forward and backward, beat the scatter at every density down to 1 %; the
+// sparse path still needs the dense adjoint for the input gradient). Transposed convolutions:
+// by output channels, below each measured crossover (2: ~6 %, 16: ~15 %, 32: ~20 %, 64: 35-50 %):
+// the scatter writes C_out floats per tap, so few output channels leave it paying mostly for
+// index work.
+double sparse_density_threshold(const SynapseGeometry& g, int64_t out_channels);
 
 // u = eps * (W (*) s) for s [T, B, C_in, H, W] float or double on the CPU (any values; fast when
 // most are zero). Differentiable w.r.t. s and weight. Equals synapse_forward(psp(s)) within float
@@ -41,8 +47,9 @@ torch::Tensor sparse_synapse_psp(const torch::Tensor& s, const torch::Tensor& we
 // Fraction of nonzero entries of x (parallel count).
 double nonzero_density(const torch::Tensor& x);
 
-// Whether `path` runs the sparse kernels for input s (Auto: CPU, float/double, density at most
-// kSparseDensityThreshold).
-bool use_sparse_path(KernelPath path, const torch::Tensor& s);
+// Whether `path` runs the sparse kernels for input s of a layer of geometry g with out_channels
+// outputs (Auto: CPU, float/double, density at most sparse_density_threshold).
+bool use_sparse_path(KernelPath path, const torch::Tensor& s, const SynapseGeometry& g,
+                     int64_t out_channels);
 
 }  // namespace spikems::train

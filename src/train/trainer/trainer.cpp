@@ -29,6 +29,7 @@
 #include "train/network/ann2d_network.h"
 #include "train/neuron/kernel_choice.h"
 #include "train/neuron/neuron_cuda_torch.h"
+#include "train/threads.h"
 #include "train/trainer/batch_tensors.h"
 #include "train/trainer/checkpoint.h"
 #include "train/trainer/distributed.h"
@@ -441,8 +442,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
     fail("run.device", "", "cuda asked for, but this LibTorch has no CUDA device");
   const torch::Device device(c.device == "cuda" ? torch::kCUDA : torch::kCPU);
   set_neuron_kernels(parse_neuron_kernels(c.neuron_kernels));
-  const int threads = c.threads > 0 ? c.threads : int(std::thread::hardware_concurrency());
-  torch::set_num_threads(std::max(1, threads));
+  const int threads = set_torch_threads(c.threads);  // the BLAS pool: one thread (threads.h)
   torch::manual_seed(c.seed);
   install_interrupt_flag();
 
@@ -664,6 +664,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
       {"kind", "run"},      {"step", st.step},    {"event", ro.resume ? "resume" : "start"},
       {"threads", threads}, {"device", c.device}, {"command", ro.command}};
   if (world > 1) start_line["world_size"] = world;
+  start_line["blas_threads"] = blas_threads();  // 1 (threads.h), or 0: a BLAS without a pool
   log_line(start_line);
 
   // Validation runs on rank 0 alone; the others wait for it (Distributed::wait_for_root).
