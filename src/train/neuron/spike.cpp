@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "core/util/simd.h"
 #include "train/neuron/kernel_choice.h"
 #include "train/neuron/neuron_cuda_torch.h"
 #include "train/neuron/psp.h"
@@ -27,50 +28,67 @@ Fused fused_for(const torch::Tensor& t, const SpikeParams& p, bool use_fused) {
 
 // ---- CPU kernels: time loop outside, neurons of one chunk contiguous inside ----
 
+// form: 0 FIR (taps), 1 delayed exponential, 2 alpha. Compiled per instruction set (util/simd.h).
+template <typename S>
+SPIKEMS_INLINE void forward_chunk(S* ur, S* s, int64_t T, int64_t N, int64_t n0, int64_t len,
+                                  int form, const float* taps, int64_t R, S a, S g, S theta,
+                                  S inv_ts, S* __restrict sp, S* __restrict q, S* __restrict r) {
+  for (int64_t t = 0; t < T; ++t) {
+    S* __restrict u = ur + t * N + n0;
+    S* __restrict so = s + t * N + n0;
+    if (form == 0) {
+      for (int64_t n = 0; n < len; ++n) {
+        sp[n] = u[n] >= theta ? S(1) : S(0);
+        so[n] = sp[n] * inv_ts;
+      }
+      // In place, in spike order: exactly the reference's sequence of float additions.
+      for (int64_t j = 0; j < R && t + j < T; ++j) {
+        const S nu = S(taps[j]);
+        if (nu == S(0)) continue;
+        S* __restrict uj = ur + (t + j) * N + n0;
+        for (int64_t n = 0; n < len; ++n) uj[n] += sp[n] * nu;
+      }
+    } else if (form == 1) {
+      for (int64_t n = 0; n < len; ++n) {
+        u[n] += g * q[n];
+        const S spk = u[n] >= theta ? S(1) : S(0);
+        so[n] = spk * inv_ts;
+        q[n] = a * q[n] + spk;
+      }
+    } else {
+      for (int64_t n = 0; n < len; ++n) {
+        r[n] = a * (r[n] + q[n]);
+        u[n] += g * r[n];
+        const S spk = u[n] >= theta ? S(1) : S(0);
+        so[n] = spk * inv_ts;
+        q[n] = a * q[n] + spk;
+      }
+    }
+  }
+}
+SPIKEMS_MULTIVERSION void forward_chunk_mv(float* ur, float* s, int64_t T, int64_t N, int64_t n0,
+                                           int64_t len, int form, const float* taps, int64_t R,
+                                           float a, float g, float theta, float inv_ts, float* sp,
+                                           float* q, float* r) {
+  forward_chunk(ur, s, T, N, n0, len, form, taps, R, a, g, theta, inv_ts, sp, q, r);
+}
+SPIKEMS_MULTIVERSION void forward_chunk_mv(double* ur, double* s, int64_t T, int64_t N, int64_t n0,
+                                           int64_t len, int form, const float* taps, int64_t R,
+                                           double a, double g, double theta, double inv_ts,
+                                           double* sp, double* q, double* r) {
+  forward_chunk(ur, s, T, N, n0, len, form, taps, R, a, g, theta, inv_ts, sp, q, r);
+}
+
 template <typename S>
 void forward_cpu(S* ur, S* s, int64_t T, int64_t N, const SpikeParams& p) {
   const S theta = S(p.theta), inv_ts = S(1.0 / p.ts);
   const auto& k = p.refractory;
+  const int form = k.form == Form::FIR ? 0 : k.form == Form::DelayedExp ? 1 : 2;
   at::parallel_for(0, N, kGrain, [&](int64_t n0, int64_t n1) {
     const int64_t len = n1 - n0;
     std::vector<S> spv(static_cast<size_t>(len)), qv(size_t(len), S(0)), rv(size_t(len), S(0));
-    S* __restrict sp = spv.data();
-    S* __restrict q = qv.data();
-    S* __restrict r = rv.data();
-    const S a = S(k.decay), g = S(k.gain);
-    for (int64_t t = 0; t < T; ++t) {
-      S* __restrict u = ur + t * N + n0;
-      S* __restrict so = s + t * N + n0;
-      if (k.form == Form::FIR) {
-        for (int64_t n = 0; n < len; ++n) {
-          sp[n] = u[n] >= theta ? S(1) : S(0);
-          so[n] = sp[n] * inv_ts;
-        }
-        // In place, in spike order: exactly the reference's sequence of float additions.
-        const int64_t R = int64_t(k.taps.size());
-        for (int64_t j = 0; j < R && t + j < T; ++j) {
-          const S nu = S(k.taps[size_t(j)]);
-          if (nu == S(0)) continue;
-          S* __restrict uj = ur + (t + j) * N + n0;
-          for (int64_t n = 0; n < len; ++n) uj[n] += sp[n] * nu;
-        }
-      } else if (k.form == Form::DelayedExp) {
-        for (int64_t n = 0; n < len; ++n) {
-          u[n] += g * q[n];
-          const S spk = u[n] >= theta ? S(1) : S(0);
-          so[n] = spk * inv_ts;
-          q[n] = a * q[n] + spk;
-        }
-      } else {  // Alpha
-        for (int64_t n = 0; n < len; ++n) {
-          r[n] = a * (r[n] + q[n]);
-          u[n] += g * r[n];
-          const S spk = u[n] >= theta ? S(1) : S(0);
-          so[n] = spk * inv_ts;
-          q[n] = a * q[n] + spk;
-        }
-      }
-    }
+    forward_chunk_mv(ur, s, T, N, n0, len, form, k.taps.data(), int64_t(k.taps.size()), S(k.decay),
+                     S(k.gain), theta, inv_ts, spv.data(), qv.data(), rv.data());
   });
 }
 

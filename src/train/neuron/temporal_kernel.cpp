@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/util/error.h"
+#include "core/util/simd.h"
 #include "train/neuron/kernel_choice.h"
 #include "train/neuron/neuron_cuda_torch.h"
 
@@ -122,64 +123,96 @@ torch::Tensor apply_temporal_kernel_ops(const torch::Tensor& x, const TemporalKe
 
 namespace {
 
+// The per-chunk loops below are compiled per instruction set (util/simd.h: AVX-512, AVX2,
+// baseline; chosen when the program loads), as LibTorch's own element-wise kernels are.
+template <typename S>
+SPIKEMS_INLINE void fir_chunk(const S* x, S* y, int64_t T, int64_t N, int64_t n0, int64_t len,
+                              const float* taps, int64_t K, S scale, bool reverse) {
+  for (int64_t t = 0; t < T; ++t) {
+    S* __restrict yr = y + t * N + n0;
+    for (int64_t n = 0; n < len; ++n) yr[n] = S(0);
+    // Sum with i ascending, then multiply by the scale: the order of the SLAYER kernel.
+    for (int64_t i = 0; i < K; ++i) {
+      const int64_t src = reverse ? t + i : t - i;
+      if (src < 0 || src >= T) break;
+      const S h = S(taps[i]);
+      if (h == S(0)) continue;
+      const S* __restrict xr = x + src * N + n0;
+      for (int64_t n = 0; n < len; ++n) yr[n] += h * xr[n];
+    }
+    if (scale != S(1))
+      for (int64_t n = 0; n < len; ++n) yr[n] *= scale;
+  }
+}
+SPIKEMS_MULTIVERSION void fir_chunk_mv(const float* x, float* y, int64_t T, int64_t N, int64_t n0,
+                                       int64_t len, const float* taps, int64_t K, float scale,
+                                       bool reverse) {
+  fir_chunk(x, y, T, N, n0, len, taps, K, scale, reverse);
+}
+SPIKEMS_MULTIVERSION void fir_chunk_mv(const double* x, double* y, int64_t T, int64_t N, int64_t n0,
+                                       int64_t len, const float* taps, int64_t K, double scale,
+                                       bool reverse) {
+  fir_chunk(x, y, T, N, n0, len, taps, K, scale, reverse);
+}
+
 template <typename S>
 void fir_cpu(const S* x, S* y, int64_t T, int64_t N, const std::vector<float>& taps, S scale,
              bool reverse) {
-  const int64_t K = int64_t(taps.size());
   at::parallel_for(0, N, kGrain, [&](int64_t n0, int64_t n1) {
-    const int64_t len = n1 - n0;
-    for (int64_t t = 0; t < T; ++t) {
-      S* __restrict yr = y + t * N + n0;
-      for (int64_t n = 0; n < len; ++n) yr[n] = S(0);
-      // Sum with i ascending, then multiply by the scale: the order of the SLAYER kernel.
-      for (int64_t i = 0; i < K; ++i) {
-        const int64_t src = reverse ? t + i : t - i;
-        if (src < 0 || src >= T) break;
-        const S h = S(taps[size_t(i)]);
-        if (h == S(0)) continue;
-        const S* __restrict xr = x + src * N + n0;
-        for (int64_t n = 0; n < len; ++n) yr[n] += h * xr[n];
-      }
-      if (scale != S(1))
-        for (int64_t n = 0; n < len; ++n) yr[n] *= scale;
-    }
+    fir_chunk_mv(x, y, T, N, n0, n1 - n0, taps.data(), int64_t(taps.size()), scale, reverse);
   });
+}
+
+// form: 0 alpha, 1 alpha with the drive first (AlphaLead), 2 delayed exponential.
+template <typename S>
+SPIKEMS_INLINE void iir_chunk(const S* x, S* y, int64_t T, int64_t N, int64_t n0, int64_t len,
+                              int form, S a, S g, bool reverse, S* __restrict q, S* __restrict r) {
+  for (int64_t s = 0; s < T; ++s) {
+    const int64_t t = reverse ? T - 1 - s : s;
+    const S* __restrict xr = x + t * N + n0;
+    S* __restrict yr = y + t * N + n0;
+    if (form == 0) {
+      for (int64_t n = 0; n < len; ++n) {
+        r[n] = a * (r[n] + q[n]);
+        q[n] = a * q[n] + xr[n];
+        yr[n] = g * r[n];
+      }
+    } else if (form == 1) {
+      for (int64_t n = 0; n < len; ++n) {
+        q[n] = a * q[n] + xr[n];
+        r[n] = a * (r[n] + q[n]);
+        yr[n] = g * r[n];
+      }
+    } else {
+      for (int64_t n = 0; n < len; ++n) {
+        yr[n] = g * q[n];
+        q[n] = a * q[n] + xr[n];
+      }
+    }
+  }
+}
+SPIKEMS_MULTIVERSION void iir_chunk_mv(const float* x, float* y, int64_t T, int64_t N, int64_t n0,
+                                       int64_t len, int form, float a, float g, bool reverse,
+                                       float* q, float* r) {
+  iir_chunk(x, y, T, N, n0, len, form, a, g, reverse, q, r);
+}
+SPIKEMS_MULTIVERSION void iir_chunk_mv(const double* x, double* y, int64_t T, int64_t N, int64_t n0,
+                                       int64_t len, int form, double a, double g, bool reverse,
+                                       double* q, double* r) {
+  iir_chunk(x, y, T, N, n0, len, form, a, g, reverse, q, r);
 }
 
 template <typename S>
 void iir_cpu(const S* x, S* y, int64_t T, int64_t N, const TemporalKernel& k, S scale,
              bool reverse) {
   const S a = S(k.decay), g = S(scale * k.gain);
-  const bool alpha = k.form == TemporalKernel::Form::Alpha;
-  const bool lead = k.form == TemporalKernel::Form::AlphaLead;
+  const int form = k.form == TemporalKernel::Form::Alpha       ? 0
+                   : k.form == TemporalKernel::Form::AlphaLead ? 1
+                                                               : 2;
   at::parallel_for(0, N, kGrain, [&](int64_t n0, int64_t n1) {
     const int64_t len = n1 - n0;
     std::vector<S> qv(static_cast<size_t>(len), S(0)), rv(size_t(len), S(0));
-    S* __restrict q = qv.data();
-    S* __restrict r = rv.data();
-    for (int64_t s = 0; s < T; ++s) {
-      const int64_t t = reverse ? T - 1 - s : s;
-      const S* __restrict xr = x + t * N + n0;
-      S* __restrict yr = y + t * N + n0;
-      if (alpha) {
-        for (int64_t n = 0; n < len; ++n) {
-          r[n] = a * (r[n] + q[n]);
-          q[n] = a * q[n] + xr[n];
-          yr[n] = g * r[n];
-        }
-      } else if (lead) {
-        for (int64_t n = 0; n < len; ++n) {
-          q[n] = a * q[n] + xr[n];
-          r[n] = a * (r[n] + q[n]);
-          yr[n] = g * r[n];
-        }
-      } else {
-        for (int64_t n = 0; n < len; ++n) {
-          yr[n] = g * q[n];
-          q[n] = a * q[n] + xr[n];
-        }
-      }
-    }
+    iir_chunk_mv(x, y, T, N, n0, len, form, a, g, reverse, qv.data(), rv.data());
   });
 }
 
