@@ -10,7 +10,7 @@ if(TARGET spikems-torch)
   install(TARGETS spikems-torch RUNTIME DESTINATION lib/spikems)
 endif()
 install(FILES models/spikems-default.safetensors models/spikems-fast.safetensors
-              models/spikems-full.safetensors models/README.md
+              models/spikems-fine.safetensors models/spikems-full.safetensors models/README.md
         DESTINATION share/spikems/models)
 # The simulator's presets are compiled into the binary (configs/sim/*.toml →
 # generated/sim_presets.inc), so there is nothing to install for them.

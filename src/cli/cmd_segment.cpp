@@ -370,9 +370,11 @@ void add(CLI::App& app) {
       "--model", a.model,
       "Model file (.safetensors, spikems format), or a shipped model's name: "
       "default (models/spikems-default.safetensors, or $SPIKEMS_MODEL; the default: "
-      "half resolution, 5 ms steps), fast (models/spikems-fast.safetensors: half "
-      "resolution, 10 ms steps, ~1.3x faster) or full (models/spikems-full.safetensors: "
-      "full resolution, 10 ms steps, ~1.5x slower; models/README.md)");
+      "half resolution, 10 ms steps, the threshold that keeps static scenes quiet), fast "
+      "(models/spikems-fast.safetensors: the same network at a lower threshold, more "
+      "recall), fine (models/spikems-fine.safetensors: half resolution, 5 ms steps, ~1.5x "
+      "slower, 15 ms label latency) or full (models/spikems-full.safetensors: full "
+      "resolution, 10 ms steps, ~2x slower; models/README.md)");
   cmd->add_option("--input", a.input, "Event file (any format), or - for text 't x y p' on stdin")
       ->required();
   cmd->add_option("--out", a.out,
