@@ -12,6 +12,7 @@ cmake --install "$build" --prefix "$prefix" >/dev/null
 exe=$prefix/bin/spikems
 model=$prefix/share/spikems/models/spikems-default.safetensors
 for f in "$exe" "$model" "$prefix/share/spikems/models/README.md" \
+  "$prefix/share/spikems/models/spikems-fine.safetensors" "$prefix/share/spikems/models/spikems-fast.safetensors" \
   "$prefix/share/doc/spikems/README.md" "$prefix/share/doc/spikems/LICENSE" \
   "$prefix/share/doc/spikems/docs/cli.md"; do
   [ -f "$f" ] || fail "$f not installed"
