@@ -2,10 +2,12 @@
 # The data of the forty-first session's runs (runs/rooms41/README.md), in the order they are
 # needed: calibration and training first, held-out scoring after.
 # THREADS (2) simulator threads; sets already there are kept. ~55 min on two threads.
+# ONLY="name ..." makes only those sets (e.g. the held-out and validation ones: runs/default44).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-S=${SPIKEMS:-build/spikems} T=${THREADS:-2}
-sim() { local name=$1 ds=$2; shift 2; [ -f data/$name/manifest.json ] || "$S" simulate "$@" --threads $T --out data/$name
+S=${SPIKEMS:-build/spikems} T=${THREADS:-2} ONLY=${ONLY:-}
+sim() { local name=$1 ds=$2; shift 2; [ -z "$ONLY" ] || [[ " $ONLY " == *" $name "* ]] || return 0
+        [ -f data/$name/manifest.json ] || "$S" simulate "$@" --threads $T --out data/$name
         [ "$ds" = 0 ] || [ -f data/$name-ds2/manifest.json ] || runs/ceil35/downsample2.sh $name; }
 M=(--preset mod --mask-period 10ms)
 sim mod5-val1s 0 "${M[@]}" --sequences 24 --duration 1s --seed 2001
@@ -21,5 +23,5 @@ sim mod2-heldout 0 "${M[@]}" --sequences 3 --duration 2s --seed 1001
 sim mod-heldout7001 0 "${M[@]}" --sequences 24 --duration 1s --seed 7001
 sim mod-heldout7002 0 "${M[@]}" --sequences 24 --duration 1s --seed 7002
 sim mod6-val1s 0 "${M[@]}" --sequences 24 --duration 1s --seed 2002
-[ -f /tmp/seq2.raw ] || "$S" convert data/mod2-heldout/seq_0002.h5 /tmp/seq2.raw >/dev/null
+[ -f /tmp/seq2.raw ] || [ ! -f data/mod2-heldout/seq_0002.h5 ] || "$S" convert data/mod2-heldout/seq_0002.h5 /tmp/seq2.raw >/dev/null
 echo data done
