@@ -26,6 +26,20 @@ with common.Scratch() as tmp:
             assert z["p"].tolist() == [1, 0, 1, 1, 0]
             assert z["sensor"].tolist() == [8, 6]
 
+    # `segment --labels x.npy`: one uint8 per event, equal to the label column of --out x.npz.
+    model = os.path.join(args.source, "models", "spikems-default.safetensors")
+    ds = os.path.join(tmp, "seg")
+    common.run(args.spikems, "simulate", "--preset", "tiny", "--sequences", "1", "--seed", "5",
+               "--threads", "1", "--no-progress", "--out", ds)
+    seq = os.path.join(ds, "seq_0000.h5")
+    col, full = os.path.join(tmp, "col.npy"), os.path.join(tmp, "full.npz")
+    common.run(args.spikems, "segment", "--quiet", "--model", model, "--input", seq,
+               "--labels", col, "--out", full)
+    c = np.load(col)
+    with np.load(full) as z:
+        assert c.dtype == np.uint8 and c.shape == z["label"].shape, (c.dtype, c.shape)
+        assert np.array_equal(c, z["label"]) and c.size > 0
+
     try:
         import h5py
     except ImportError:

@@ -64,6 +64,16 @@ void AtomicFile::write(const void* data, size_t n) {
   if (written_ - flushed_ >= kWritebackChunk) start_writeback();
 }
 
+void AtomicFile::overwrite(uint64_t offset, const void* data, size_t n) {
+  if (offset + n > written_)
+    fail(target_, "",
+         "internal: overwrite past the bytes written (" + std::to_string(offset + n) + " > " +
+             std::to_string(written_) + ")");
+  if (std::fflush(handle()) != 0 ||
+      ::pwrite(fileno(f_), data, n, off_t(offset)) != static_cast<ssize_t>(n))
+    fail(target_, "", std::string("write failed: ") + std::strerror(errno));
+}
+
 // commit() must have the data on disk before the rename (below). Waiting for all of a large
 // output there costs as long as the disk takes to write it (tens of MB of text labels: a tenth
 // of `segment`'s time), so the writeback of each finished chunk is started as the output

@@ -23,6 +23,9 @@ class AtomicFile {
   std::FILE* handle();
   void write(const void* data, size_t n);
   void write(const std::string& s) { write(s.data(), s.size()); }
+  // Replaces n bytes already written at `offset` (a header whose content is known only at the
+  // end); the next write() still appends.
+  void overwrite(uint64_t offset, const void* data, size_t n);
   // Flushes, fsyncs, closes and renames over the target.
   void commit();
   bool committed() const { return committed_; }

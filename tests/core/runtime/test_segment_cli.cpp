@@ -1,6 +1,7 @@
 // `spikems segment` through the command line: outputs, live stdin, bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -8,6 +9,7 @@
 
 #include "common/test_paths.h"
 #include "common/tiny_models.h"
+#include "core/events/formats/npy.h"
 #include "core/events/formats/zip.h"
 #include "core/events/io.h"
 #include "core/model/model_file.h"
@@ -188,6 +190,33 @@ TEST(SegmentCli, NpzLabelsTakeTheWritersCompressionOptions) {
   EXPECT_EQ(run_command(base + " --out " + d + "/x.npz --compression zstd", &out), 1);
   EXPECT_NE(out.find("npz supports compression 'deflate' (default) or 'none'"), std::string::npos)
       << out;
+}
+
+// --labels writes the label column alone (.npy uint8 or .txt lines), in the events' order,
+// equal to --out's label column, beside --out or on its own; another extension stops the
+// command before it writes anything.
+TEST(SegmentCli, LabelColumnEqualsTheLabelledEvents) {
+  std::string d = scratch_dir();
+  std::string model = write_pass_off_model(d), ev = write_events(d);
+  std::string base = spikems_binary() + " segment --quiet --model " + model + " --input " + ev;
+  std::string out;
+  ASSERT_EQ(run_command(base + " --out " + d + "/l.txt --labels " + d + "/both.npy", &out), 0)
+      << out;
+  const EventStream want = read_events(d + "/l.txt");
+  ASSERT_EQ(want.size(), 480u);
+  std::vector<int> want_labels(want.label.begin(), want.label.end());
+  EXPECT_EQ(std::count(want_labels.begin(), want_labels.end(), 1), 240);  // the OFF events
+  EXPECT_EQ(read_npy(d + "/both.npy").to<int>(), want_labels);
+  ASSERT_EQ(run_command(base + " --labels " + d + "/alone.npy", &out), 0) << out;
+  EXPECT_EQ(read_npy(d + "/alone.npy").to<int>(), want_labels);
+  ASSERT_EQ(run_command(base + " --labels " + d + "/alone.txt", &out), 0) << out;
+  std::ifstream f(d + "/alone.txt");
+  std::vector<int> lines;
+  for (int v; f >> v;) lines.push_back(v);
+  EXPECT_EQ(lines, want_labels);
+  EXPECT_EQ(run_command(base + " --labels " + d + "/x.csv --out " + d + "/x.txt", &out), 1);
+  EXPECT_NE(out.find(".npy"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(d + "/x.txt"));
 }
 
 // --block-steps changes when outputs are written, not what: labels, mask PNGs and boxes are

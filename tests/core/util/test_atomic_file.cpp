@@ -92,3 +92,17 @@ TEST(ByteSource, EndianLoads) {
   EXPECT_EQ(load_be32(b), 0x01020304u);
   EXPECT_EQ(load_le64(b), 0x0807060504030201ull);
 }
+
+// overwrite() replaces bytes already written (a header known only at the end); later writes
+// still append; a range past the written bytes is an error.
+TEST(AtomicFile, OverwriteReplacesWrittenBytes) {
+  auto dir = test::scratch_dir();
+  std::string p = dir + "/hdr.bin";
+  AtomicFile f(p);
+  f.write("....body");
+  f.overwrite(0, "HEAD", 4);
+  f.write("+tail");
+  EXPECT_THROW(f.overwrite(10, "xyzw", 4), Error);
+  f.commit();
+  EXPECT_EQ(slurp(p), "HEADbody+tail");
+}
