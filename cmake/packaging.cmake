@@ -65,6 +65,12 @@ if(SPIKEMS_BUILD_TESTS)
   add_test(NAME pack_build_deps COMMAND "${CMAKE_SOURCE_DIR}/tests/package/test_pack_build_deps.sh")
   set_tests_properties(pack_build_deps PROPERTIES LABELS install TIMEOUT 300)
 
+  # scripts/build_pgo's binary labels a room as the plain one does (two builds of spikems,
+  # ~10-20 min on 2 cores: "slow"; ctest --test-dir build -L pgo).
+  add_test(NAME pgo_build COMMAND "${CMAKE_SOURCE_DIR}/tests/package/test_pgo.sh"
+                                  "${CMAKE_BINARY_DIR}")
+  set_tests_properties(pgo_build PROPERTIES LABELS "pgo;slow" TIMEOUT 3600)
+
   # Builds the .deb (a whole Release build the first time), so it is "slow" and left out of
   # the default run: ctest --test-dir build -L package.
   add_test(NAME package_deb
