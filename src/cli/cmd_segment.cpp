@@ -227,7 +227,19 @@ void run(const Args& a) {
   std::unique_ptr<AtomicFile> boxes;
   // --labels: the label column alone, opened now so a wrong extension stops before any work.
   std::optional<LabelColumnWriter> column;
-  if (!a.labels.empty()) column.emplace(a.labels);
+  if (!a.labels.empty()) {
+    // Two outputs renamed onto one path: the second would silently replace the first.
+    for (const std::string* other : {&a.out, &a.boxes, &a.input})
+      if (!other->empty() && *other != "-" &&
+          std::filesystem::weakly_canonical(*other) == std::filesystem::weakly_canonical(a.labels))
+        fail(a.labels, "",
+             "--labels names the same file as " +
+                 std::string(other == &a.out     ? "--out"
+                             : other == &a.boxes ? "--boxes"
+                                                 : "--input") +
+                 "; give it a path of its own");
+    column.emplace(a.labels);
+  }
   KalmanTracker tracker;
   if (!a.masks_dir.empty()) std::filesystem::create_directories(a.masks_dir);
   if (!a.boxes.empty()) {

@@ -217,6 +217,13 @@ TEST(SegmentCli, LabelColumnEqualsTheLabelledEvents) {
   EXPECT_EQ(run_command(base + " --labels " + d + "/x.csv --out " + d + "/x.txt", &out), 1);
   EXPECT_NE(out.find(".npy"), std::string::npos) << out;
   EXPECT_FALSE(std::filesystem::exists(d + "/x.txt"));
+  // One path for two outputs, or the input itself, is refused before anything is written.
+  EXPECT_EQ(run_command(base + " --labels " + d + "/same.txt --out " + d + "/./same.txt", &out), 1);
+  EXPECT_NE(out.find("same file as --out"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(d + "/same.txt"));
+  EXPECT_EQ(run_command(base + " --labels " + ev, &out), 1);
+  EXPECT_NE(out.find("same file as --input"), std::string::npos) << out;
+  EXPECT_EQ(read_events(ev).size(), 480u);  // the input is intact
 }
 
 // --block-steps changes when outputs are written, not what: labels, mask PNGs and boxes are
