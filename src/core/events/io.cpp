@@ -23,14 +23,14 @@ const FormatInfo* find_format(const std::string& name) {
   return nullptr;
 }
 
-namespace {
-
 std::string lower_extension(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(),
                  [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
+
+namespace {
 
 std::string known_format_names() {
   std::string s;

@@ -74,6 +74,9 @@ struct FormatInfo {
 
 const std::vector<FormatInfo>& formats();
 const FormatInfo* find_format(const std::string& name);
+// A path's extension, lower-case with its dot (".npy"; "" without one).
+std::string lower_extension(const std::string& path);
+
 // Detects the format of a path (file or folder) from content, then extension.
 const FormatInfo& detect_format(const std::string& path);
 const FormatInfo& format_for_output(const std::string& path, const std::string& forced = "");

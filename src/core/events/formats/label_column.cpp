@@ -1,25 +1,12 @@
 #include "core/events/formats/label_column.h"
 
 #include <algorithm>
-#include <cctype>
-#include <filesystem>
 
 #include "core/events/formats/npy.h"
+#include "core/events/io.h"
 #include "core/util/error.h"
 
 namespace spikems {
-namespace {
-
-constexpr size_t kNpyHeader = 128;  // npy_header() of any 1-D array
-
-std::string lower_extension(const std::string& path) {
-  std::string e = std::filesystem::path(path).extension().string();
-  std::transform(e.begin(), e.end(), e.begin(),
-                 [](unsigned char c) { return char(std::tolower(c)); });
-  return e;
-}
-
-}  // namespace
 
 LabelColumnWriter::LabelColumnWriter(const std::string& path) : file_(path) {
   const std::string e = lower_extension(path);
@@ -31,7 +18,7 @@ LabelColumnWriter::LabelColumnWriter(const std::string& path) : file_(path) {
     fail(path, "",
          "a label column is written as .npy (uint8, one per event) or .txt (one per line), not '" +
              e + "'");
-  if (layout_ == Layout::kNpy) file_.write(std::string(kNpyHeader, ' '));  // rewritten at close
+  if (layout_ == Layout::kNpy) file_.write(std::string(kNpyHeader1d, ' '));  // rewritten at close
 }
 
 void LabelColumnWriter::write(const EventStream& ev) {
@@ -70,7 +57,7 @@ void LabelColumnWriter::close() {
   if (file_.committed()) return;
   if (layout_ == Layout::kNpy) {
     const std::vector<uint8_t> h = npy_header(npy_descr_of<uint8_t>(), {int64_t(n_)});
-    if (h.size() != kNpyHeader) fail(file_.target(), "", "internal: npy header is not 128 bytes");
+    if (h.size() != kNpyHeader1d) fail(file_.target(), "", "internal: npy header is not 128 bytes");
     file_.overwrite(0, h.data(), h.size());
   }
   file_.commit();

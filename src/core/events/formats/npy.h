@@ -47,6 +47,9 @@ std::vector<uint8_t> serialize_npy(const NpyArray& a);
 // padded so that the data that follows starts on a 64-byte boundary (128 bytes for any 1-D
 // array).
 std::vector<uint8_t> npy_header(const std::string& descr, const std::vector<int64_t>& shape);
+// npy_header()'s size for any 1-D array: writers that stream a column reserve it and write the
+// header once the length is known.
+inline constexpr size_t kNpyHeader1d = 128;
 void write_npy(const std::string& path, const NpyArray& a);  // atomic
 
 // Keys are the member names without ".npy".

@@ -174,7 +174,7 @@ class ColumnFile {
     fail(target_, "",
          std::string("writing a temporary column file failed: ") + std::strerror(errno));
   }
-  static constexpr size_t kHeader = 128;
+  static constexpr size_t kHeader = kNpyHeader1d;
   std::string target_, descr_;
   std::FILE* f_ = nullptr;
 };
