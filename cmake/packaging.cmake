@@ -77,4 +77,10 @@ if(SPIKEMS_BUILD_TESTS)
            COMMAND "${CMAKE_SOURCE_DIR}/tests/package/test_deb.sh"
                    "-DSPIKEMS_WITH_TRAIN=${SPIKEMS_WITH_TRAIN}")
   set_tests_properties(package_deb PROPERTIES LABELS "package;slow" TIMEOUT 3600)
+  # The same for `scripts/package --pgo` in its own folder (two builds: ctest -L pgo).
+  add_test(NAME package_deb_pgo
+           COMMAND "${CMAKE_SOURCE_DIR}/tests/package/test_deb.sh" --pgo
+                   "-DSPIKEMS_WITH_TRAIN=${SPIKEMS_WITH_TRAIN}")
+  set_tests_properties(package_deb_pgo PROPERTIES LABELS "package;pgo;slow" TIMEOUT 5400
+                       ENVIRONMENT "PACKAGE_BUILD_DIR=${CMAKE_BINARY_DIR}/package-pgo")
 endif()
