@@ -38,11 +38,12 @@ done
 
 # Every shared library the programs load comes from a package that Depends names (HDF5 is
 # linked from its static archive where Debian ships one, so it need not be among them).
+# ldconfig lives in /sbin, which is not on a Debian user's PATH.
+loader_cache=$(/sbin/ldconfig -p)
 for bin in "$exe" "$root/usr/lib/spikems/spikems-torch"; do
   [ -f "$bin" ] || continue
   for so in $(readelf -d "$bin" | sed -n 's/.*Shared library: \[\(.*\)\]/\1/p'); do
-    # (awk reads to the end: an early exit would end ldconfig with SIGPIPE under pipefail)
-    path=$(ldconfig -p | awk -v s="$so" '$1 == s && p == "" { p = $NF } END { print p }')
+    path=$(awk -v s="$so" '$1 == s { print $NF; exit }' <<<"$loader_cache")
     [ -n "$path" ] || fail "$bin needs $so, which this system's loader does not know"
     pkg=$(dpkg -S "$path" 2>/dev/null | sed -n '1s/:.*//p') || true
     [ -n "$pkg" ] || pkg=$(dpkg -S "$(realpath "$path")" 2>/dev/null | sed -n '1s/:.*//p') || true
