@@ -3,9 +3,8 @@
 // only (NeuronKernels::Ops: per-step tensor ops for the psp filter and the spike loop), in one
 // process: 128x128 crops with T = 40 (the default training sample: 30 ms warm-up + 10 ms
 // window) and the whole 346x260 sensor with T = 10. Reports ms per step, samples/s and the peak
-// GPU memory of the step (CUDA caching allocator). Weights: the shipped `fine` model (the
-// default until the forty-fourth session), so the firing rates are those of a trained
-// network; input: 2 % of pixels spike per step.
+// GPU memory of the step (CUDA caching allocator). Weights: the shipped `fine` model, so the
+// firing rates are those of a trained network; input: 2 % of pixels spike per step.
 // Skips where the build has no CUDA kernels or no GPU is present.
 // Run: build/bench_train_gpu  (figures: docs/performance.md, "Training on a GPU").
 #include <benchmark/benchmark.h>

@@ -50,7 +50,7 @@ void add_scale_flags(CLI::App* cmd, ScaleFlags& f) {
       ->capture_default_str();
   cmd->add_option("--train-grid", f.train_grid,
                   "WIDTHxHEIGHT: the grid a model was trained on, for models that record none "
-                  "(trained before spikems recorded it), e.g. 173x130 for 346x260 rooms "
+                  "(e.g. imported with import-slayer), e.g. 173x130 for 346x260 rooms "
                   "downsampled 2x; used by --downsample auto");
 }
 

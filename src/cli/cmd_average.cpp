@@ -41,7 +41,9 @@ void run(const Args& a) {
 void add(CLI::App& app) {
   static Args a;
   auto* cmd = app.add_subcommand(
-      "average", "Average the weights of several snapshots of one training run into one model");
+      "average",
+      "(experimental) Average the weights of several snapshots of one training run into one "
+      "model");
   cmd->footer(
       "Weights, axonal delays and biases are averaged element by element (stochastic weight "
       "averaging); the models must be snapshots of one network with identical settings "
@@ -51,8 +53,8 @@ void add(CLI::App& app) {
       "and training record, drops its calibration and lists its sources in "
       "training.averaged_from: choose its output threshold again with `spikems calibrate`.\n\n"
       "Example:\n"
-      "  spikems average --model runs/x/val-step2500.safetensors runs/x/val-step2750.safetensors "
-      "runs/x/model.safetensors --out runs/x/swa.safetensors");
+      "  spikems average --model my-run/val-step2500.safetensors my-run/val-step2750.safetensors "
+      "my-run/model.safetensors --out my-run/swa.safetensors");
   cmd->add_option("--model", a.models, "Model files to average (two or more)")->required();
   cmd->add_option("--out", a.out, "Where to write the average (a new file; written atomically)")
       ->required();

@@ -92,16 +92,13 @@ void add(CLI::App& app) {
       "--max-static-moving % of their events moving compete: an operating point with a budget "
       "of false calls on camera motion. See docs/evaluation.md, \"Operating points\".\n\n"
       "Examples:\n"
-      "  spikems calibrate --model runs/x/best.safetensors --data data/mod-val --split all "
-      "--out runs/x/calibrated.safetensors\n"
-      "  spikems calibrate --model m.safetensors --data data/mod --factors 1,1.1,1.2 "
-      "--criterion iou --window 20 --max-seconds 1 --out m-cal.safetensors\n"
-      "  spikems calibrate --model m.safetensors --data data/mod-val --split all --factors 1 "
-      "--gates 0,6,10,20 --criterion iou --out m-gated.safetensors\n"
+      "  spikems calibrate --model my-run/best.safetensors --data data/mod-val --split all "
+      "--out calibrated.safetensors\n"
       "  spikems calibrate --model m.safetensors --data data/mod-val --split all --static "
-      "data/poster-val --max-static-moving 5 --out m-cal.safetensors");
-  cmd->add_option("--model", a.model,
-                  "The model file to calibrate (or a shipped model's name: default, fast, full)")
+      "data/static-val --max-static-moving 5 --gates 0,10 --out m-cal.safetensors");
+  cmd->add_option(
+         "--model", a.model,
+         "The model file to calibrate (or a shipped model's name: default, fast, fine, full)")
       ->required();
   cmd->add_option("--data", a.data,
                   "Labelled validation data: simulator folders or recordings (repeat for more)")
@@ -134,9 +131,10 @@ void add(CLI::App& app) {
   cmd->add_option("--max-seconds", a.max_seconds,
                   "Score only the first S seconds of each sequence");
   cmd->add_option("--time-step-ms", a.time_step_ms,
-                  "Move the model to this step (ms), its time constants scaled by the same "
-                  "ratio (each step behaves as trained, with more time and events in it: a "
-                  "faster network), calibrate it there and write it with that step (0 = its own)");
+                  "(experimental) Move the model to this step (ms), its time constants scaled by "
+                  "the same ratio (each step behaves as trained, with more time and events in it: "
+                  "a faster network), calibrate it there and write it with that step (0 = its "
+                  "own)");
   cmd->add_option("--threads", a.threads, "Threads inside the network (results identical)")
       ->capture_default_str();
   cli::add_scale_flags(cmd, a.scale);

@@ -187,53 +187,52 @@ void run(const ConvertArgs& a) {
 }
 
 void add(CLI::App& app) {
-  auto a = std::make_shared<ConvertArgs>();
+  static ConvertArgs a;
   auto* cmd = app.add_subcommand(
       "convert",
       "Convert an event file to another format, chunk by chunk (mask frames, intrinsics and "
       "metadata are carried over where both formats hold them); the output appears atomically");
-  cmd->add_option("input", a->in, "Input event file or dataset folder")->required();
-  cmd->add_option("output", a->out, "Output file (format from the extension or --format)")
+  cmd->add_option("input", a.in, "Input event file or dataset folder")->required();
+  cmd->add_option("output", a.out, "Output file (format from the extension or --format)")
       ->required();
-  cmd->add_option("--format", a->out_format, "Output format (see `spikems formats`)");
-  cmd->add_option("--compression", a->compression, "Output compression where the format has it")
+  cmd->add_option("--format", a.out_format, "Output format (see `spikems formats`)");
+  cmd->add_option("--compression", a.compression, "Output compression where the format has it")
       ->check(CLI::IsMember({"lz4", "zstd", "deflate", "none"}));
-  cmd->add_option("--level", a->level, "Compression level (format default when absent)");
-  cmd->add_option("--from", a->from,
+  cmd->add_option("--level", a.level, "Compression level (format default when absent)");
+  cmd->add_option("--from", a.from,
                   "Keep events from this time on (e.g. 1.5s, 250ms; from the first event)");
-  cmd->add_option("--to", a->to, "Keep events before this time (same units as --from)");
-  cmd->add_flag("--absolute", a->absolute,
+  cmd->add_option("--to", a.to, "Keep events before this time (same units as --from)");
+  cmd->add_flag("--absolute", a.absolute,
                 "--from/--to are the file's own timestamps, not offsets from the first event");
-  cmd->add_flag("--sort", a->sort,
+  cmd->add_flag("--sort", a.sort,
                 "Accept out-of-order timestamps and sort them (reads the whole file into memory)");
-  cmd->add_option("--in-format", a->in_format, "Force the input format");
-  cmd->add_option("--time-unit", a->time_unit, "Text input: unit of t (auto, s, us)")
+  cmd->add_option("--in-format", a.in_format, "Force the input format");
+  cmd->add_option("--time-unit", a.time_unit, "Text input: unit of t (auto, s, us)")
       ->check(CLI::IsMember({"auto", "s", "us"}));
-  cmd->add_option("--out-time-unit", a->out_time_unit, "Text output: unit of t (us, s)")
+  cmd->add_option("--out-time-unit", a.out_time_unit, "Text output: unit of t (us, s)")
       ->check(CLI::IsMember({"us", "s"}));
-  cmd->add_option("--width", a->width, "Sensor width where the input does not say")
+  cmd->add_option("--width", a.width, "Sensor width where the input does not say")
       ->check(CLI::Range(1, 65535));
-  cmd->add_option("--height", a->height, "Sensor height where the input does not say")
+  cmd->add_option("--height", a.height, "Sensor height where the input does not say")
       ->check(CLI::Range(1, 65535));
-  cmd->add_option("--denoise", a->denoise,
+  cmd->add_option("--denoise", a.denoise,
                   "Background-activity filter: keep events with a neighbour event at most this "
                   "long before (e.g. 1ms)");
-  cmd->add_option("--refractory", a->refractory,
+  cmd->add_option("--refractory", a.refractory,
                   "Drop events closer than this to the previous kept event of their pixel");
-  cmd->add_option("--crop", a->crop, "Keep the region X,Y,W,H (sensor pixels)");
-  cmd->add_flag("--flip-x", a->flip_x, "Mirror left-right (after the crop)");
-  cmd->add_flag("--flip-y", a->flip_y, "Mirror top-bottom (after the crop)");
-  cmd->add_option("--downsample", a->downsample, "Integer factor: pixel = floor(coord / f)")
+  cmd->add_option("--crop", a.crop, "Keep the region X,Y,W,H (sensor pixels)");
+  cmd->add_flag("--flip-x", a.flip_x, "Mirror left-right (after the crop)");
+  cmd->add_flag("--flip-y", a.flip_y, "Mirror top-bottom (after the crop)");
+  cmd->add_option("--downsample", a.downsample, "Integer factor: pixel = floor(coord / f)")
       ->check(CLI::Range(1, 64));
-  cmd->add_flag("-q,--quiet", a->quiet, "No progress bar or summary line");
+  cmd->add_flag("-q,--quiet", a.quiet, "No progress bar or summary line");
   cmd->footer(
       "Examples:\n  spikems convert recording.raw recording.h5\n"
       "  spikems convert seq.npz events.txt --from 2s --to 3.5s\n"
       "  spikems convert in.aedat4 out.raw --format evt3");
-  cmd->callback([a] {
-    if ((a->width > 0) != (a->height > 0))
-      spikems::fail(a->in, "", "pass both --width and --height");
-    run(*a);
+  cmd->callback([] {
+    if ((a.width > 0) != (a.height > 0)) spikems::fail(a.in, "", "pass both --width and --height");
+    run(a);
   });
 }
 

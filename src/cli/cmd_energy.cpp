@@ -61,11 +61,12 @@ void add(CLI::App& app) {
       "C_out x k^2). A sample is one window of --window-ms on the whole sensor; energy at 0.9 "
       "pJ per accumulate and 4.6 pJ per MAC. See docs/evaluation.md.\n\n"
       "Examples:\n"
-      "  spikems energy --model m.safetensors --data data/mod --out out/energy\n"
+      "  spikems energy --model m.safetensors --data data/mod --out energy-out\n"
       "  spikems energy --model m.safetensors --data rec.h5 --window-ms 20 --max-seconds 2");
   cmd->add_option(
       "--model", a.model,
-      "Model file, or a shipped model's name (default, fast, full; default: the shipped default)");
+      "Model file, or a shipped model's name (default, fast, fine, full; default: the shipped "
+      "default)");
   cmd->add_option("--data", a.data,
                   "A `spikems simulate` folder (manifest.json) or an event file; repeatable");
   cmd->add_option("--split", a.split, "Split of simulator folders: train, val, test or all")

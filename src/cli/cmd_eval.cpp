@@ -125,30 +125,15 @@ void add(CLI::App& app) {
       "inside the boxes valid in the window and an event is moving when it lies in a box valid "
       "at its time. See docs/evaluation.md.\n\n"
       "Examples:\n"
-      "  spikems eval --model m.safetensors --data data/mod --out out/eval\n"
-      "  spikems eval --model m.safetensors --data data/mod --split all --windows 1:25 --out o\n"
-      "  spikems eval --model m.safetensors --data rec.h5 --data data/evimo --windows 10,20,100 "
-      "--iir --threads 2 --out o\n"
-      "  spikems eval --model m.safetensors --data data/mod --max-seconds 0.5   (a quick check)\n"
-      "  spikems eval --model a.safetensors --model b.safetensors --baseline all-events "
-      "--data data/mod --out o   (several models and the 'every event moving' baseline on the "
-      "same windows)\n"
-      "  spikems eval --model m.safetensors --data data/mod --windows 1:25 --kalman 3 --out o   "
-      "(incremental prediction: filtered 3 ms windows beside the plain ones)\n"
-      "  spikems eval --model m.safetensors --data ball.txt --boxes ball_boxes.csv --windows 10 "
-      "(box ground truth, EED style)\n"
-      "  spikems eval --model m.safetensors --data data/val --split all --share-bands 1,5,20   "
-      "(IoU by object size: four bands of the windows' share of moving events)\n"
-      "  spikems eval --model m.safetensors --data poster.npz --static-scene --windows 20   "
-      "(a static scene: the share of events called moving)\n"
-      "  spikems eval --model m.safetensors --data data/mod --split all --min-moving-share 50   "
-      "(only the windows the SpikeMS authors' test keeps on MOD)\n"
-      "  spikems eval --model m.safetensors --data data/val --output-thresholds 1,1.1,1.2,1.3 "
-      "--out o   (operating points: pick a factor on validation data, run it with segment "
-      "--output-threshold)");
-  cmd->add_option("--model", a.models,
-                  "Model file (.safetensors, spikems format) or a shipped model's name (default, "
-                  "fast, full); repeat to compare several (default: the shipped default model)");
+      "  spikems eval --model m.safetensors --data data/mod --out eval-out\n"
+      "  spikems eval --model fast --data data/mod --split all --min-moving-share 50 "
+      "--group-windows 8   (the SpikeMS authors' protocol)\n"
+      "  spikems eval --model a.safetensors --model b.safetensors --baseline all-events --data "
+      "data/mod --windows 10,20,100 --max-seconds 0.5   (several models on the same windows)");
+  cmd->add_option(
+      "--model", a.models,
+      "Model file (.safetensors, spikems format) or a shipped model's name (default, "
+      "fast, fine, full); repeat to compare several (default: the shipped default model)");
   cmd->add_option("--baseline", a.baselines,
                   "Also score a baseline on the same windows: all-events (every pixel with an "
                   "event predicted moving); repeatable")
@@ -162,9 +147,9 @@ void add(CLI::App& app) {
                   "Window lengths in ms, comma-separated; ranges FROM:TO[:STEP] (1:25 = 1..25)")
       ->capture_default_str();
   cmd->add_option("--kalman", a.kalman,
-                  "Also score these window lengths (ms, as --windows) with each window's "
-                  "prediction filtered by a constant-velocity Kalman filter per object: the "
-                  "'filtered' rows (e.g. --kalman 3)");
+                  "(experimental) Also score these window lengths (ms, as --windows) with each "
+                  "window's prediction filtered by a constant-velocity Kalman filter per object: "
+                  "the 'filtered' rows (e.g. --kalman 3)");
   cmd->add_option("--out", a.out,
                   "Folder for results.json, results.csv, results.md and report.html (with "
                   "plots/*.svg and windows/*.png)");
@@ -213,10 +198,10 @@ void add(CLI::App& app) {
                   "a sensor gives fewer events (higher contrast threshold, slower motion)")
       ->capture_default_str();
   cmd->add_option("--time-step-ms", a.time_step_ms,
-                  "Run every model at this step (ms) with its time constants scaled by the same "
-                  "ratio, so each step behaves as trained with more time and events in it: fewer "
-                  "steps, a faster network, outputs close to the model's own (0 = each model's "
-                  "own step; docs/evaluation.md, \"Coarser time steps\")");
+                  "(experimental) Run every model at this step (ms) with its time constants "
+                  "scaled by the same ratio, so each step behaves as trained with more time and "
+                  "events in it: fewer steps, a faster network, outputs close to the model's own "
+                  "(0 = each model's own step; docs/evaluation.md, \"Coarser time steps\")");
   cmd->add_flag("--iir", a.iir,
                 "Run FIR layers with the exact recursions of the same neurons (faster; spikes "
                 "close to but not identical with the FIR model)");

@@ -8,6 +8,10 @@ namespace {
 
 void add(CLI::App& app) {
   auto* cmd = app.add_subcommand("formats", "List the event file formats spikems reads and writes");
+  cmd->footer(
+      "Example:\n"
+      "  spikems formats   (then: spikems convert recording.raw recording.h5)\n"
+      "Details of each format: docs/formats.md.");
   cmd->callback([] {
     std::printf("%-12s %-5s %-6s %-24s %s\n", "name", "read", "write", "extensions", "description");
     for (const auto& f : spikems::formats()) {

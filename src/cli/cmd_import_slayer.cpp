@@ -1,8 +1,8 @@
 // `spikems import-slayer WEIGHTS.npz --out MODEL`: converts the SpikeMS authors' SLAYER
 // checkpoint (exported to npz: conv/deconv weights, srm/ref kernels, neuron_params,
-// layer_stride/padding/is_transposed; see ../shared/reference/spikems-evimo/README.md) into a
-// spikems model file. The sampled kernels are copied verbatim (FIR layers, SpikeMS refractory
-// and surrogate), so the model reproduces the authors' forward pass. Needs no LibTorch.
+// layer_stride/padding/is_transposed) into a spikems model file. The sampled kernels are copied
+// verbatim (FIR layers, SpikeMS refractory and surrogate), so the model reproduces the authors'
+// forward pass. Needs no LibTorch.
 #include <cmath>
 #include <cstdio>
 
@@ -96,7 +96,7 @@ struct Args {
 };
 
 void add(CLI::App& app) {
-  auto a = std::make_shared<Args>();
+  static Args a;
   auto* cmd = app.add_subcommand(
       "import-slayer",
       "Convert a SpikeMS/SLAYER weight export (npz) into a spikems model file.\n"
@@ -105,13 +105,17 @@ void add(CLI::App& app) {
       "scaleRef, tauRho, scaleRho, Ts, tSample), layer_stride, layer_padding, "
       "layer_is_transposed.\n"
       "Kernels are copied verbatim (FIR), the refractory and surrogate are the SpikeMS forms.");
-  cmd->add_option("weights", a->in, "weights .npz")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--out,-o", a->out, "output model file (.safetensors)")->required();
-  cmd->callback([a] {
-    spikems::ModelSpec spec = import_slayer(a->in);
-    spikems::save_model(a->out, spec);
-    std::printf("%s: %zu layers, Ts %g ms, written to %s\n", a->in.c_str(), spec.layers.size(),
-                spec.time_step_ms, a->out.c_str());
+  cmd->add_option("weights", a.in, "weights .npz")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--out,-o", a.out, "output model file (.safetensors)")->required();
+  cmd->footer(
+      "Examples:\n"
+      "  spikems import-slayer weights.npz --out authors.safetensors\n"
+      "  spikems segment --model authors.safetensors --input recording.aedat4 --out labels.txt");
+  cmd->callback([] {
+    spikems::ModelSpec spec = import_slayer(a.in);
+    spikems::save_model(a.out, spec);
+    std::printf("%s: %zu layers, Ts %g ms, written to %s\n", a.in.c_str(), spec.layers.size(),
+                spec.time_step_ms, a.out.c_str());
     for (size_t k = 0; k < spec.layers.size(); ++k) {
       const auto& l = spec.layers[k];
       std::printf(

@@ -193,36 +193,36 @@ void print_text(const std::string& path, const Stats& s) {
 }
 
 void add(CLI::App& app) {
-  auto args = std::make_shared<InfoArgs>();
+  static InfoArgs args;
   auto* cmd = app.add_subcommand(
       "info",
       "Describe event files: format, resolution, event count, duration, rate, polarity balance, "
       "labels, mask frames, intrinsics (streams the file: bounded memory); or model files "
       "(.safetensors): layers, time step, output threshold and gate, calibration, training");
-  cmd->add_option("files", args->files, "Event files, dataset folders or model files")->required();
-  cmd->add_flag("--json", args->json, "Print one JSON object per file (a JSON array)");
-  spikems::cli::add_read_flags(cmd, args->read);
+  cmd->add_option("files", args.files, "Event files, dataset folders or model files")->required();
+  cmd->add_flag("--json", args.json, "Print one JSON object per file (a JSON array)");
+  spikems::cli::add_read_flags(cmd, args.read);
   cmd->footer(
-      "Examples:\n  spikems info recording.raw\n  spikems info seq.npz --json\n"
-      "  spikems info events.txt --width 346 --height 260\n"
+      "Examples:\n  spikems info recording.raw\n"
+      "  spikems info events.txt --width 346 --height 260 --json\n"
       "  spikems info models/spikems-default.safetensors");
-  cmd->callback([args] {
+  cmd->callback([] {
     spikems::install_interrupt_flag();
     spikems::ReadOptions ro;
     ro.mask_planes = false;  // the frames' count and times, not their pixels
-    ro.sort = args->read.sort;
-    ro.time_unit = args->read.time_unit;
-    ro.format = args->read.format;
-    ro.sensor = {args->read.width, args->read.height};
+    ro.sort = args.read.sort;
+    ro.time_unit = args.read.time_unit;
+    ro.format = args.read.format;
+    ro.sensor = {args.read.width, args.read.height};
     if (!ro.sensor.known()) ro.sensor = {};
     nlohmann::json all = nlohmann::json::array();
     int failed = 0;
-    for (size_t i = 0; i < args->files.size(); ++i) {
-      const auto& f = args->files[i];
+    for (size_t i = 0; i < args.files.size(); ++i) {
+      const auto& f = args.files[i];
       try {
         if (f.size() > 12 && f.compare(f.size() - 12, 12, ".safetensors") == 0) {
           const spikems::ModelSpec m = spikems::load_model(f);  // validates, names the file
-          if (args->json) {
+          if (args.json) {
             nlohmann::json j = spikems::model_summary(m);
             j["file"] = f;
             all.push_back(std::move(j));
@@ -233,7 +233,7 @@ void add(CLI::App& app) {
           continue;
         }
         Stats s = gather(f, ro);
-        if (args->json)
+        if (args.json)
           all.push_back(to_json(f, s));
         else {
           if (i) std::printf("\n");
@@ -245,7 +245,7 @@ void add(CLI::App& app) {
         ++failed;
       }
     }
-    if (args->json) std::printf("%s\n", all.dump(2).c_str());
+    if (args.json) std::printf("%s\n", all.dump(2).c_str());
     std::fflush(stdout);
     if (failed) throw CLI::RuntimeError(1);
   });

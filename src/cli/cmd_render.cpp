@@ -129,34 +129,34 @@ void run(const RenderArgs& a) {
 }
 
 void add(CLI::App& app) {
-  auto a = std::make_shared<RenderArgs>();
+  static RenderArgs a;
   auto* cmd = app.add_subcommand(
       "render",
       "Draw the events of one time window as a PNG: ON red, OFF blue (both: purple), the "
       "ground-truth mask outlined in green");
-  cmd->add_option("file", a->file, "Event file or dataset folder")->required();
-  cmd->add_option("--from", a->from,
+  cmd->add_option("file", a.file, "Event file or dataset folder")->required();
+  cmd->add_option("--from", a.from,
                   "Window start, from the first event (e.g. 1.5s, 250ms, 1200us; plain number = "
                   "seconds)")
       ->capture_default_str();
-  cmd->add_option("--window", a->window, "Window length (e.g. 10ms)")->capture_default_str();
-  cmd->add_option("-o,--out", a->out, "Output PNG")->required();
-  cmd->add_option("--scale", a->scale, "Enlarge by this integer factor")
+  cmd->add_option("--window", a.window, "Window length (e.g. 10ms)")->capture_default_str();
+  cmd->add_option("-o,--out", a.out, "Output PNG")->required();
+  cmd->add_option("--scale", a.scale, "Enlarge by this integer factor")
       ->check(CLI::Range(1, 16))
       ->capture_default_str();
-  cmd->add_flag("--labels", a->labels,
+  cmd->add_flag("--labels", a.labels,
                 "Colour labelled events by object id (labels from the file, else from its mask "
                 "frames)");
-  cmd->add_flag("--mask-from-labels", a->mask_from_labels,
+  cmd->add_flag("--mask-from-labels", a.mask_from_labels,
                 "Outline the footprint of the labelled events instead of the nearest mask frame");
-  cmd->add_flag("--no-outline", a->no_outline, "Do not draw the ground-truth outline");
-  cmd->add_flag("--absolute", a->absolute,
+  cmd->add_flag("--no-outline", a.no_outline, "Do not draw the ground-truth outline");
+  cmd->add_flag("--absolute", a.absolute,
                 "--from is the file's own timestamp, not an offset from the first event");
-  spikems::cli::add_read_flags(cmd, a->read);
+  spikems::cli::add_read_flags(cmd, a.read);
   cmd->footer(
       "Examples:\n  spikems render seq.npz --from 1.5s --window 10ms --out frame.png --scale 2\n"
       "  spikems render events.txt --from 0 --window 25ms --out f.png --labels");
-  cmd->callback([a] { run(*a); });
+  cmd->callback([] { run(a); });
 }
 
 }  // namespace

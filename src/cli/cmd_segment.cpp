@@ -383,7 +383,13 @@ void add(CLI::App& app) {
   cmd->footer(
       "An event of step t is foreground when the network's output spikes at its pixel within "
       "steps t..t+L+tolerance (L = one step per layer). Text output: one line 't_us x y p "
-      "label' per event. See docs/runtime.md.");
+      "label' per event. See docs/runtime.md.\n\n"
+      "Examples:\n"
+      "  spikems segment --input recording.raw --out labels.txt\n"
+      "  spikems segment --model fast --input recording.raw --labels labels.npy --masks-dir "
+      "masks\n"
+      "  camera_driver | spikems segment --input - --width 346 --height 260 --out -   (live: "
+      "text 't x y p' lines in, labelled lines out)");
   cmd->add_option(
       "--model", a.model,
       "Model file (.safetensors, spikems format), or a shipped model's name: "
@@ -440,7 +446,7 @@ void add(CLI::App& app) {
                   "stays in the cache; 16 steps: ~1.2x at 1 M ev/s), but outputs come up to N-1 "
                   "steps later (with --threads, the layers form a pipeline over blocks: as many "
                   "blocks more as layers). Default for files: ~40 ms of steps (20 ms with "
-                  "--threads), 1 to 16 (16 at the 1-2 ms steps of older models, 4 at 10 ms); 1 "
+                  "--threads), 1 to 16 (16 at 1-2 ms steps, 4 at 10 ms); 1 "
                   "(lowest latency) for stdin")
       ->check(CLI::Range(1, 4096));
   cmd->add_flag("--iir", a.iir,
@@ -448,10 +454,10 @@ void add(CLI::App& app) {
                 "truncation): ~1.5x faster (docs/performance.md), spikes close to but not "
                 "identical with the FIR model");
   cmd->add_option("--time-step-us", a.step_us,
-                  "Run at this step, the model's time constants scaled by the same ratio so "
-                  "each step behaves as trained with more time and events in it: fewer steps, "
-                  "faster, outputs close to the model's own (default: the model's step; "
-                  "docs/evaluation.md, \"Coarser time steps\")")
+                  "(experimental) Run at this step, the model's time constants scaled by the "
+                  "same ratio so each step behaves as trained with more time and events in it: "
+                  "fewer steps, faster, outputs close to the model's own (default: the model's "
+                  "step; docs/evaluation.md, \"Coarser time steps\")")
       ->check(CLI::Range(int64_t(1), int64_t(1000000)));
   cmd->add_option("--label-tolerance", a.tolerance,
                   "Steps added to the network latency in the labelling window (default 3)")

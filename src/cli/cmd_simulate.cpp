@@ -165,50 +165,48 @@ void run(const Args& a) {
 }
 
 void add(CLI::App& app) {
-  auto args = std::make_shared<Args>();
+  static Args args;
   auto* cmd = app.add_subcommand(
       "simulate",
       "Generate labelled event data from a simulated 3-D scene (event camera simulator)");
   cmd->footer(
       "Examples:\n"
       "  spikems simulate --preset mod --sequences 40 --duration 2s --out data/mod\n"
-      "  spikems simulate --preset eed-net --noise clean --out data/eed --threads 2\n"
-      "  spikems simulate --config my.toml --out data/x     (start from --print-config)\n"
-      "  spikems simulate --preset mod --sequences 16 --duration 200ms --out d --preview\n"
-      "  spikems simulate --preset mod --stats-compare poster_translation.npz\n"
+      "  spikems simulate --preset mod --sequences 16 --duration 200ms --out data/look "
+      "--preview\n"
+      "  spikems simulate --config my.toml --out data/mine   (start from --print-config)\n"
       "Presets: mod, mod-fixed, mod-translate, evimo, eed-net, poster, tiny (configs/sim/*.toml). "
-      "See "
-      "docs/simulator.md.");
-  cmd->add_option("--preset", args->preset,
+      "See docs/simulator.md.");
+  cmd->add_option("--preset", args.preset,
                   "Scene preset: mod, mod-fixed, mod-translate, evimo, eed-net, poster, tiny")
       ->check(CLI::IsMember(::spikems::sim::preset_names()));
-  cmd->add_option("--config", args->config, "TOML config (replaces the preset)")
+  cmd->add_option("--config", args.config, "TOML config (replaces the preset)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--sequences", args->sequences, "Number of sequences")
+  cmd->add_option("--sequences", args.sequences, "Number of sequences")
       ->check(CLI::Range(1, 1000000));
-  cmd->add_option("--duration", args->duration, "Length of each sequence (e.g. 2s, 500ms)");
-  cmd->add_option("--out", args->out, "Output folder (seq_XXXX.h5 + manifest.json)");
-  cmd->add_option("--threads", args->threads, "Worker threads (default: all cores)")
+  cmd->add_option("--duration", args.duration, "Length of each sequence (e.g. 2s, 500ms)");
+  cmd->add_option("--out", args.out, "Output folder (seq_XXXX.h5 + manifest.json)");
+  cmd->add_option("--threads", args.threads, "Worker threads (default: all cores)")
       ->check(CLI::Range(1, 1024));
-  cmd->add_option("--seed", args->seed, "Global seed (same seed, same bytes)");
-  cmd->add_option("--noise", args->noise, "Sensor noise: clean or noisy (default: config)")
+  cmd->add_option("--seed", args.seed, "Global seed (same seed, same bytes)");
+  cmd->add_option("--noise", args.noise, "Sensor noise: clean or noisy (default: config)")
       ->check(CLI::IsMember({"clean", "noisy"}));
-  cmd->add_option("--width", args->width, "Sensor width (default: config)")
+  cmd->add_option("--width", args.width, "Sensor width (default: config)")
       ->check(CLI::Range(8, 4096));
-  cmd->add_option("--height", args->height, "Sensor height (default: config)")
+  cmd->add_option("--height", args.height, "Sensor height (default: config)")
       ->check(CLI::Range(8, 4096));
-  cmd->add_option("--mask-period", args->mask_period,
+  cmd->add_option("--mask-period", args.mask_period,
                   "Period of mask frames and poses (default 1ms; coarser = smaller files)");
-  cmd->add_option("--format", args->format, "Output format (default spikems-h5)");
-  cmd->add_option("--stats-compare", args->stats_compare,
+  cmd->add_option("--format", args.format, "Output format (default spikems-h5)");
+  cmd->add_option("--stats-compare", args.stats_compare,
                   "Print event statistics of FILE (a real recording) beside simulated ones")
       ->check(CLI::ExistingFile);
-  cmd->add_flag("--print-config", args->print_config, "Print the preset's TOML and exit");
-  cmd->add_flag("--preview", args->preview,
+  cmd->add_flag("--print-config", args.print_config, "Print the preset's TOML and exit");
+  cmd->add_flag("--preview", args.preview,
                 "Also write <out>/preview.png: 10 ms of events at mid-sequence per sequence "
                 "(first 64), in a grid");
-  cmd->add_flag("--no-progress", args->no_progress, "No progress bar");
-  cmd->callback([args] { run(*args); });
+  cmd->add_flag("--no-progress", args.no_progress, "No progress bar");
+  cmd->callback([] { run(args); });
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-// `spikems train --config configs/train/NAME.toml --out runs/NAME`: trains the SpikeMS network
+// `spikems train --config configs/train/NAME.toml --out DIR`: trains the SpikeMS network
 // (src/train/trainer/). This file only parses the command line and calls the trainer.
 #include <cstdio>
 
@@ -72,62 +72,57 @@ void run(const Args& a) {
 }
 
 void add(CLI::App& app) {
-  auto a = std::make_shared<Args>();
+  static Args a;
   auto* cmd = app.add_subcommand("train", spikems::cli::torch_command("train").description);
-  cmd->add_option("--config,-c", a->config,
+  cmd->add_option("--config,-c", a.config,
                   "training configuration (TOML, configs/train/; or a run's config.json)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--out,-o", a->out, "run folder: log, checkpoints, models");
-  cmd->add_option("--resume", a->resume, "continue the run in this folder from its checkpoint")
+  cmd->add_option("--out,-o", a.out, "run folder: log, checkpoints, models");
+  cmd->add_option("--resume", a.resume, "continue the run in this folder from its checkpoint")
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("--set", a->set, "override a config key: section.key=value (repeatable)");
-  cmd->add_option("--steps", a->steps, "training length in steps (optim.steps)")
+  cmd->add_option("--set", a.set, "override a config key: section.key=value (repeatable)");
+  cmd->add_option("--steps", a.steps, "training length in steps (optim.steps)")
       ->check(CLI::Range(1, 1 << 30));
-  cmd->add_option("--threads", a->threads, "CPU threads (run.threads; 0 = all cores)")
+  cmd->add_option("--threads", a.threads, "CPU threads (run.threads; 0 = all cores)")
       ->check(CLI::Range(0, 1024));
-  cmd->add_option("--device", a->device, "cpu or cuda (run.device)")
+  cmd->add_option("--device", a.device, "cpu or cuda (run.device)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
-  cmd->add_option("--kernels", a->kernels,
+  cmd->add_option("--kernels", a.kernels,
                   "synapse kernels (run.kernels): auto, sparse (scatter of the input spikes) or "
                   "dense (LibTorch convolutions)")
       ->check(CLI::IsMember({"auto", "sparse", "dense"}));
-  cmd->add_flag("--quiet,-q", a->quiet, "no progress bar");
-  cmd->add_option("--time-limit", a->time_limit,
+  cmd->add_flag("--quiet,-q", a.quiet, "no progress bar");
+  cmd->add_option("--time-limit", a.time_limit,
                   "stop after the step that ends past this wall time (e.g. 9min, 150min, 3600s; "
                   "data loading counts), with a checkpoint; continue with --resume");
   // Data-parallel training, launched like torchrun (docs/training.md).
-  cmd->add_option("--world-size", a->dist.world_size,
+  cmd->add_option("--world-size", a.dist.world_size,
                   "data-parallel: number of processes (WORLD_SIZE; 1 = single process)")
       ->check(CLI::Range(1, 65536));
-  cmd->add_option("--rank", a->dist.rank, "data-parallel: this process's rank (RANK)")
+  cmd->add_option("--rank", a.dist.rank, "data-parallel: this process's rank (RANK)")
       ->check(CLI::Range(0, 65535));
-  cmd->add_option("--master-addr", a->dist.master_addr,
+  cmd->add_option("--master-addr", a.dist.master_addr,
                   "data-parallel: rank 0's host name or address (MASTER_ADDR)");
-  cmd->add_option("--master-port", a->dist.master_port,
+  cmd->add_option("--master-port", a.dist.master_port,
                   "data-parallel: rank 0's store port (MASTER_PORT; default 29500)")
       ->check(CLI::Range(1, 65535));
-  cmd->add_option("--dist-timeout", a->dist.timeout_s,
+  cmd->add_option("--dist-timeout", a.dist.timeout_s,
                   "data-parallel: seconds a rank waits for the others before stopping "
                   "(default 300)")
       ->check(CLI::Range(0.001, 1e7));
   cmd->footer(
       "Examples:\n"
-      "  spikems simulate --preset mod --sequences 20 --duration 2s --out data/mod-train\n"
-      "  spikems train --config configs/train/default.toml --out runs/default\n"
-      "  spikems train --resume runs/default                  (after a stop or a kill)\n"
-      "  spikems train --resume runs/default --time-limit 9min   (at most ~9 minutes, then a "
-      "checkpoint)\n"
-      "  spikems train --config c.toml --out runs/dp --world-size 2 --rank 0 --master-addr "
-      "127.0.0.1 &\n"
-      "  spikems train --config c.toml --out runs/dp --world-size 2 --rank 1 --master-addr "
-      "127.0.0.1   (data-parallel; rank 0 writes the run)\n"
-      "  spikems train --config configs/train/default.toml --out runs/x --set loss.kind=both "
-      "--set optim.lr=0.002 --steps 500\n"
+      "  spikems train --config configs/train/default.toml --out my-run\n"
+      "  spikems train --resume my-run --time-limit 150min   (continue after a stop or a kill; "
+      "at most 150 minutes, then a checkpoint)\n"
+      "  spikems train --config configs/train/default.toml --out my-run --set optim.lr=0.002 "
+      "--steps 500\n"
       "The run folder gets config.json, log.jsonl, curves.svg, checkpoint.pt, model.safetensors "
-      "and best.safetensors. Every key: docs/training.md.");
-  cmd->callback([a] {
-    a->command = spikems::cli::invoked_command();
-    run(*a);
+      "and best.safetensors. Every key, and data-parallel runs (--world-size, --rank, "
+      "--master-addr on every process): docs/training.md.");
+  cmd->callback([] {
+    a.command = spikems::cli::invoked_command();
+    run(a);
   });
 }
 

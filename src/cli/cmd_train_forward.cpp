@@ -60,15 +60,18 @@ void run(const Args& a) {
 }
 
 void add(CLI::App& app) {
-  auto a = std::make_shared<Args>();
+  static Args a;
   auto* cmd = app.add_subcommand("forward", spikems::cli::torch_command("forward").description);
-  cmd->add_option("--model,-m", a->model, "model file")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--input,-i", a->input, "input .npz")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--output,-o", a->output, "output .npz")->required();
-  cmd->add_option("--key", a->key, "array name of the input in the npz")->capture_default_str();
-  cmd->add_option("--threads", a->threads, "LibTorch threads (0 = hardware threads)")
+  cmd->add_option("--model,-m", a.model, "model file")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--input,-i", a.input, "input .npz")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--output,-o", a.output, "output .npz")->required();
+  cmd->add_option("--key", a.key, "array name of the input in the npz")->capture_default_str();
+  cmd->add_option("--threads", a.threads, "LibTorch threads (0 = hardware threads)")
       ->check(CLI::Range(0, 1024));
-  cmd->callback([a] { run(*a); });
+  cmd->footer(
+      "Example:\n"
+      "  spikems forward --model m.safetensors --input spikes.npz --output layers.npz");
+  cmd->callback([] { run(a); });
 }
 
 }  // namespace

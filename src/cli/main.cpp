@@ -3,11 +3,14 @@
 // to the helper, torch_helper.h) and, with SPIKEMS_TORCH_HELPER, into `spikems-torch`.
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
+#include <string_view>
 
 #include "cli/command.h"
 #include "cli/torch_helper.h"
 #include "core/util/error.h"
+#include "spikems/version.h"
 
 #ifndef SPIKEMS_TORCH_HELPER
 #define SPIKEMS_TORCH_HELPER 0  // 1: this is spikems-torch
@@ -32,6 +35,33 @@ int guarded(F&& body) {
     std::cerr << "spikems: error: " << e.what() << "\n";
   }
   return 1;
+}
+
+// SPIKEMS_PARSE_ONLY=1: parse and check the command line (option names, value types, ranges)
+// and exit without running anything. Files named on it need not exist, so that documented
+// examples can be checked without their data (tests/docs).
+bool parse_only_requested() {
+  const char* v = std::getenv("SPIKEMS_PARSE_ONLY");
+  return v != nullptr && std::string_view(v) == "1";
+}
+
+void make_parse_only(CLI::App& app) {
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
+    sub->callback([] {});
+    // CLI11's path checks have no name, only a description: FILE, DIR, PATH(existing).
+    for (CLI::Option* opt : sub->get_options([](CLI::Option*) { return true; })) {
+      for (int i = 0;; ++i) {
+        CLI::Validator* v = nullptr;
+        try {
+          v = opt->get_validator(i);
+        } catch (const CLI::OptionNotFound&) {
+          break;
+        }
+        const std::string d = v->get_description();
+        if (d == "FILE" || d == "DIR" || d == "PATH(existing)") v->active(false);
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -66,6 +96,7 @@ int main(int argc, char** argv) {
     c.add(app);
   }
   add_stubs_before(1 << 30);
+  if (parse_only_requested()) make_parse_only(app);
   return guarded([&]() -> int {
     try {
       app.parse(argc, argv);

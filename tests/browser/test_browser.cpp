@@ -188,8 +188,25 @@ TEST_F(Browser, DemoPageAndItsReportRender) {
       << out;
   const Rendered index = render(demo + "/index.html", dir_ + "/chromium_index");
   expect_rendered(index, demo + "/index.html", 1 + 3);  // events.png and 3 windows at least
+  // input | truth | prediction of the shipped model, no bare prediction frames.
+  EXPECT_GE(count(index.dom, "<img src=\"windows/"), 3u);
+  EXPECT_EQ(count(index.dom, "masks/"), 0u);
   EXPECT_NE(index.dom.find("href=\"eval/report.html\""), std::string::npos)
       << "index.html does not link the evaluation report";
+  // One score table: a row per model and the baseline, the authors' EV-IMO model where
+  // ../shared holds it; the speed.
+  EXPECT_EQ(count(index.dom, "<table"), 1u);
+  EXPECT_NE(index.dom.find("<table id=\"scores\">"), std::string::npos);
+  const bool evimo =
+      fs::exists(fs::path(test::source_dir()) / "../shared/reference/spikems-evimo/weights.npz");
+  EXPECT_EQ(count(index.dom, "<tr><td>"), evimo ? 4u : 3u);
+  for (const char* row :
+       {"default (shipped)", "full (--model full)", "every event moving (baseline)"})
+    EXPECT_NE(index.dom.find(std::string("<tr><td>") + row + "</td>"), std::string::npos) << row;
+  if (evimo) {
+    EXPECT_NE(index.dom.find("<tr><td>EV-IMO (the authors' model)</td>"), std::string::npos);
+  }
+  EXPECT_NE(index.dom.find("events/s"), std::string::npos) << "index.html gives no speed";
   const Rendered report = render(demo + "/eval/report.html", dir_ + "/chromium_report");
   expect_rendered(report, demo + "/eval/report.html", 3);
   EXPECT_EQ(count(report.dom, "<table"), 3u);  // summary, size bands, per sequence

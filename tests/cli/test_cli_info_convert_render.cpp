@@ -60,6 +60,45 @@ TEST(CliInfoConvertRender, HelpListsTheOptions) {
   }
 }
 
+// Every command's --help shows at least one example, and options that no shipped model depends
+// on say they are experimental (docs/cli.md lists the same).
+TEST(CliHelp, EveryCommandShowsExamples) {
+  std::vector<std::string> cmds{"info",     "convert",       "render",    "segment",
+                                "simulate", "eval",          "calibrate", "energy",
+                                "average",  "import-slayer", "formats"};
+  if (SPIKEMS_TEST_WITH_TRAIN) cmds.insert(cmds.end(), {"train", "forward"});
+  for (const std::string& c : cmds) {
+    std::string out;
+    EXPECT_EQ(run_command(spikems_binary() + " " + c + " --help", &out), 0) << c << ": " << out;
+    EXPECT_NE(out.find("Example"), std::string::npos) << c << " --help has no example:\n" << out;
+    EXPECT_NE(out.find("spikems " + c), std::string::npos) << c << ": " << out;
+  }
+}
+
+TEST(CliHelp, ExperimentalOptionsAreMarked) {
+  struct Case {
+    const char* cmd;
+    const char* option;
+  };
+  for (const Case& c : {Case{"segment", "--time-step-us"}, Case{"eval", "--kalman"},
+                        Case{"eval", "--time-step-ms"}, Case{"calibrate", "--time-step-ms"}}) {
+    std::string out;
+    ASSERT_EQ(run_command(spikems_binary() + " " + c.cmd + " --help", &out), 0) << out;
+    // The option's entry: its name, then its description (on the next line when the name
+    // column is full), up to the next option.
+    const size_t at = out.find(std::string("\n  ") + c.option + " ");
+    ASSERT_NE(at, std::string::npos) << c.cmd << " " << c.option << "\n" << out;
+    const std::string entry = out.substr(at, out.find("\n  -", at + 1) - at);
+    EXPECT_NE(entry.find("(experimental)"), std::string::npos) << c.cmd << ": " << entry;
+  }
+  std::string out;
+  ASSERT_EQ(run_command(spikems_binary() + " --help", &out), 0) << out;
+  const size_t at = out.find("  average");
+  ASSERT_NE(at, std::string::npos) << out;
+  EXPECT_NE(out.substr(at, out.find('\n', at) - at).find("(experimental)"), std::string::npos)
+      << out;
+}
+
 TEST(CliInfoConvertRender, BadInputsFailWithTheFileName) {
   std::string dir = test::scratch_dir();
   std::string missing = dir + "/missing_file.raw";

@@ -716,13 +716,20 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(out.find("a `spikems train` run folder?"), std::string::npos) << out;
 }
 
-// Every recipe the repository ships parses, and the geometry it asks for is buildable.
+// Every recipe the repository ships parses, and the geometry it asks for is buildable. The
+// hybrid recipe takes its ANN-2D teacher on the command line: without it, it is refused.
 TEST(Trainer, ShippedConfigsParse) {
   int n = 0;
   for (const auto& e : fs::directory_iterator(test::source_dir() + "/configs/train")) {
     if (e.path().extension() != ".toml") continue;
     SCOPED_TRACE(e.path().string());
-    TrainConfig c = load_train_config(e.path().string(), {});
+    std::vector<std::string> ov;
+    if (e.path().filename() == "hybrid.toml") {
+      expect_refused<Error>([&] { load_train_config(e.path().string(), {}); }, {"loss.teacher"},
+                            "the hybrid recipe without a teacher");
+      ov = {"model.init_ann=\"teacher.safetensors\"", "loss.teacher=\"teacher.safetensors\""};
+    }
+    TrainConfig c = load_train_config(e.path().string(), ov);
     EXPECT_EQ(c.init_rates.size(), 2 * c.channels.size());
     EXPECT_NO_THROW(spikems_architecture(c.padded, Discretisation::IIR, c.channels));
     ++n;

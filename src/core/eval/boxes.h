@@ -1,5 +1,5 @@
 // Box ground truth for recordings annotated with bounding boxes instead of per-event labels
-// (EED style; BRIEF.md section 6: "with boxes as G where only boxes exist"). A boxes file is
+// (EED style; the paper scores such recordings with the boxes as G). A boxes file is
 // CSV (docs/evaluation.md):
 //
 //   t_start_us,t_end_us,x0,y0,x1,y1[,id]

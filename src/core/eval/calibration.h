@@ -21,7 +21,7 @@ struct CalibrationOptions {
   std::vector<int64_t> gates_us;
   int64_t window_us = 20000;
   // "event-iou": TP / (TP + FP + FN) over the events of all whole windows (the per-event view
-  // `spikems segment` gives; monotone in the event F1); "iou": BRIEF.md's mean window IoU.
+  // `spikems segment` gives; monotone in the event F1); "iou": the paper's mean window IoU.
   std::string criterion = "event-iou";
   // Static scenes (every event background; simulator folders scored whole, or recordings): each
   // point's share of their events called moving is measured, and only points at or below

@@ -1,6 +1,6 @@
 // `spikems energy`: the SNN's synaptic operations per sample, counted by the streaming runtime
-// on real data, against the multiply-accumulates of the ANN-2D of the same shapes (BRIEF.md
-// section 6, the paper's energy table). A sample = one window of window_us on the whole sensor.
+// on real data, against the multiply-accumulates of the ANN-2D of the same shapes (the paper's
+// energy table). A sample = one window of window_us on the whole sensor.
 //
 // SynOps: every (input spike, output neuron it reaches) pair a weight was added for, as the
 // runtime counts them (StreamingLayer::synops): a spike near a border reaches fewer neurons.

@@ -1,8 +1,8 @@
-// Incremental prediction (issue 19 section 4, `spikems eval --kalman MS`): the network's
-// predictions over successive short windows (e.g. 3 ms) go through a linear Kalman filter per
-// object, and the filtered prediction of a window is the input events inside the filtered
-// boxes. Short windows hold few spikes, so single windows miss parts of an object or the whole
-// object; the filter carries each object's position, velocity and size across windows.
+// Incremental prediction (`spikems eval --kalman MS`): the network's predictions over successive
+// short windows (e.g. 3 ms) go through a linear Kalman filter per object, and the filtered
+// prediction of a window is the input events inside the filtered boxes. Short windows hold few
+// spikes, so single windows miss parts of an object or the whole object; the filter carries each
+// object's position, velocity and size across windows.
 //
 // Per window: the prediction P is dilated and split into 8-connected blobs (KalmanTracker);
 // each blob is associated with a track (greedy nearest centroid inside a gate). A track's

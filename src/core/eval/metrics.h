@@ -1,4 +1,4 @@
-// Segmentation metrics as the SpikeMS paper reports them (BRIEF.md section 6).
+// Segmentation metrics as the SpikeMS paper reports them (docs/evaluation.md).
 // P = pixels predicted foreground in a window (any output spike), G = pixels with foreground
 // input events in the window. Masks are row-major H*W bytes, non-zero = set.
 #pragma once
@@ -80,7 +80,7 @@ struct EventCounts {
   double moving_share() const { return total() ? double(tp + fp) / double(total()) : 0; }
 };
 
-// Energy per BRIEF.md section 6 (Lee et al. 2020, 45 nm, 32-bit float).
+// Energy per operation as the paper counts it (Lee et al. 2020, 45 nm, 32-bit float).
 inline constexpr double kPicojoulePerAccumulate = 0.9;
 inline constexpr double kPicojoulePerMac = 4.6;
 inline double snn_energy_pj(double synops) {

@@ -1,5 +1,5 @@
 // Scores prediction frames against labelled events, for several window lengths at once
-// (BRIEF.md section 6), streaming in bounded memory.
+// (as the paper reports them), streaming in bounded memory.
 //
 // Window k of length W covers [origin + k*W, origin + (k+1)*W), origin = the first event's
 // time. P = pixels predicted foreground in the window: the OR of the prediction frames it
@@ -80,7 +80,7 @@ class WindowScorer {
   // Event gating (call before the first events): P of the plain lengths becomes P ∩ E, E = the
   // pixels with any input event in the window, i.e. a prediction counts only where events
   // fell (as per-event labels do; the ANN-2D's P is gated by construction). Off by default:
-  // BRIEF.md's P is every pixel with an output spike.
+  // the paper's P is every pixel with an output spike.
   void gate_by_events(bool on);
 
   // Box ground truth (call before the first events; null: off): G of each window = the pixels

@@ -276,8 +276,8 @@ ModelSpec spikems_architecture(bool padded, Discretisation d, const std::vector<
              std::to_string(tau_s.size()));
   for (double t : tau_s)
     if (!(t >= 0.1 && t <= 100)) fail("architecture tau_s", "", "each must lie in 0.1..100 ms");
-  // The authors' neuron parameters per encoder level (BRIEF.md section 3); the decoder mirrors
-  // the encoder's (its first layer the bottleneck's, its last the input layer's).
+  // The authors' neuron parameters per encoder level; the decoder mirrors the encoder's (its
+  // first layer the bottleneck's, its last the input layer's).
   struct Neuron {
     float theta, ts, tr, rho;
   };

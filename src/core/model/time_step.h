@@ -3,7 +3,7 @@
 // - Steps: each step behaves as before; every time constant (tau_s, tau_r) is scaled by the
 //   ratio of the steps, so the weights see the same per-step dynamics with more time (and
 //   events) in each step. A trained model keeps its output; the runtime then runs 1/ratio as
-//   many steps (docs/results.md, "Thirty-second session").
+//   many steps (docs/evaluation.md, "Coarser time steps").
 // - Ms: the time constants stay in milliseconds (the neurons' physical dynamics); each step's
 //   decay changes, so a trained network's potentials change (a 2 ms model at 5 ms steps falls
 //   silent). The output gate keeps its duration.

@@ -1,10 +1,11 @@
 // The streaming segmentation pipeline: time-ordered event chunks in, per-event labels and
 // mask frames out, in bounded memory whatever the stream's length.
 //
-// Binning (BRIEF.md section 4): step k covers [origin + k*step, origin + (k+1)*step), origin =
-// the first event's time; all events of one polarity at one pixel within a step are one input
-// spike (channel = polarity, 0 OFF, 1 ON). Each completed step advances the network once;
-// silent stretches advance it with empty steps (cheap: idle neurons are never touched).
+// Binning (the paper's input representation): step k covers [origin + k*step,
+// origin + (k+1)*step), origin = the first event's time; all events of one polarity at one pixel
+// within a step are one input spike (channel = polarity, 0 OFF, 1 ON). Each completed step
+// advances the network once; silent stretches advance it with empty steps (cheap: idle neurons
+// are never touched).
 #pragma once
 
 #include <chrono>
@@ -44,8 +45,8 @@ struct SegmenterOptions {
 // The block a file is run in when the user does not choose one: about 40 ms of steps on one
 // thread, 20 ms with threads (the layers' pipeline holds a block per layer, so its latency and
 // its filling cost grow with the block), 1 to 16 steps. Measured on a held-out room of 1 M
-// ev/s (docs/performance.md, "Start-up and output"): at 10 ms steps blocks of 4 run as fast as
-// 16 on one thread, and with two threads blocks of 2 run 1.7x faster than 16; at 2 ms steps 10
+// ev/s (docs/performance.md, "Threads and blocks of steps"): at 10 ms steps blocks of 4 run as fast
+// as 16 on one thread, and with two threads blocks of 2 run 1.7x faster than 16; at 2 ms steps 10
 // is a little faster than 16 with two threads.
 int default_block_steps(double step_ms, int threads);
 

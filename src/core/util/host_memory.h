@@ -12,7 +12,7 @@ namespace spikems {
 // Peak resident memory grows by what one step frees (measured +33-35 %). The streaming runtime
 // frees and allocates event batches, label queues and output chunks of hundreds of KB at every
 // block of steps: the same faults, a few percent of `segment`'s time (docs/performance.md,
-// "Start-up and text labels, again"). Returns false where the C library offers no such setting
+// "Start-up and output"). Returns false where the C library offers no such setting
 // (not glibc).
 bool keep_freed_memory();
 

@@ -7,7 +7,7 @@
 //
 // Counted per input event (input spike): a network whose decoder fires as much on a sparse
 // input as on a busy one pays most on the sparse one, which is where the shipped model wastes
-// its work (docs/performance.md, "The default's decoder does not follow the event rate").
+// its work (docs/performance.md, "What the network's cost depends on").
 #pragma once
 
 #include <torch/torch.h>

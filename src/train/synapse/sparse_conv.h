@@ -1,4 +1,4 @@
-// Sparse CPU path of a spiking layer's synaptic potential (issue 18, section 1).
+// Sparse CPU path of a spiking layer's synaptic potential.
 //
 // The dense path computes u = W (*) (eps * s): the psp filter on every input neuron, then a dense
 // conv / transposed conv of the (dense) filtered input. Both maps are linear and act on different
@@ -29,7 +29,7 @@ KernelPath parse_kernel_path(const std::string& name);  // "auto" | "sparse" | "
 const char* kernel_path_name(KernelPath k);
 
 // Auto's rule, measured per layer on the 2-core machine (bench/bench_train_sparse.cpp --layers;
-// docs/performance.md, "Sparse synapse kernels, again"): the largest input density at which
+// docs/performance.md, "Sparse synapse kernels"): the largest input density at which
 // the sparse path of a layer is still faster than the dense one. Convolutions: none (LibTorch's
 // strided conv2d, forward and backward, beat the scatter at every density down to 1 %; the
 // sparse path still needs the dense adjoint for the input gradient). Transposed convolutions:

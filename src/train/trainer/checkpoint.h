@@ -16,7 +16,7 @@ struct CheckpointState {
   int64_t step = 0;          // steps completed
   double best_val_iou = -1;  // best validation IoU (%) so far, -1: none yet
   int64_t best_step = -1;
-  double wall_seconds = 0;  // training time spent so far (over every session)
+  double wall_seconds = 0;  // training time spent so far (summed over the start and every resume)
   // The averaged weights (optim.ema_decay), one per parameter in parameters() order, and the
   // number of updates they have had; empty without averaging (and in older checkpoints).
   std::vector<torch::Tensor> ema;

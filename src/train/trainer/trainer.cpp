@@ -23,6 +23,7 @@
 #include "core/util/interrupt.h"
 #include "core/util/progress.h"
 #include "core/viz/svg_plot.h"
+#include "spikems/version.h"
 #include "train/loss/ann_loss.h"
 #include "train/loss/spikems_loss.h"
 #include "train/loss/synops_loss.h"
@@ -693,7 +694,7 @@ TrainResult run_training_impl(const TrainConfig& c, const TrainRunOptions& ro,
                     {"device", c.device == "cuda" ? "cuda: " + cuda_device_name() : c.device},
                     {"neuron_kernels", c.neuron_kernels}}},
                   {"command", ro.command},
-                  {"trainer", "spikems train 0.1.0"}};
+                  {"trainer", "spikems train " SPIKEMS_VERSION}};
     save_model(path, m);
   };
   auto validate = [&]() -> nlohmann::json {

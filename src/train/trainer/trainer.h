@@ -23,8 +23,8 @@ struct TrainRunOptions {
   bool progress = true;  // progress bar on stderr
   std::string command;   // the command line, for the model's provenance
   // Wall-clock budget in seconds (0: none): the run stops after the step that ends past it,
-  // with a checkpoint, as after Ctrl-C, so a job with a fixed allotment (a session, a batch
-  // queue's slot, a lent GPU's per-command limit) ends cleanly and resumes later.
+  // with a checkpoint, as after Ctrl-C, so a job with a fixed allotment (a batch queue's slot,
+  // a rented GPU's time limit) ends cleanly and resumes later.
   double time_limit_s = 0;
   // Data-parallel training (distributed.h): world size 1 is the single-process run. Every rank
   // runs run_training with the same configuration; rank 0 alone writes the run folder.

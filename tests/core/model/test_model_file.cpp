@@ -78,7 +78,7 @@ TEST(Architecture, SpikeMSHas46656WeightsAndPaperGeometry) {
   ModelSpec s = spikems_architecture(false);
   int64_t total = 0;
   for (const auto& l : s.layers) total += l.weight_count();
-  EXPECT_EQ(total, 46656);  // BRIEF.md section 3
+  EXPECT_EQ(total, 46656);  // the paper's network
   EXPECT_EQ(s.output_size(64, 80), std::make_pair(63, 79));
   EXPECT_EQ(s.output_size(180, 190), std::make_pair(175, 183));
   ModelSpec p = spikems_architecture(true);

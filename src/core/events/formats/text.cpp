@@ -29,7 +29,7 @@ constexpr auto kDigitPairs = [] {
 // v in decimal at o; returns the end. The label writer's numbers: a time of up to 20 digits,
 // and coordinates and labels of at most 5 (uint16). Two digits per division from the end,
 // with the length found first by comparisons: ~20 ms for the 2.1 M label lines of a busy room
-// against ~30 ms with std::to_chars (docs/performance.md, "Start-up and text labels, again").
+// against ~30 ms with std::to_chars (docs/performance.md, "Start-up and output").
 inline char* put_decimal(char* o, uint64_t v) {
   int n = 1;
   for (uint64_t p = 10; n < 20 && v >= p; p *= 10) ++n;
