@@ -20,15 +20,12 @@
 #   ONLY="mod-heldout6001 mod-heldout6002 mod-heldout7001 mod-heldout7002" recipes/data.sh
 # Environment: SPIKEMS (default build/spikems, else spikems on the PATH).
 set -euo pipefail
-usage() { sed -n '2,/^set -euo/{/^set -euo/d;s/^# \{0,1\}//p}' "$0" >&2; exit "$1"; }
+# shellcheck source-path=SCRIPTDIR source=common/paths.sh
+. "$(dirname "$0")/common/paths.sh"
+usage() { usage_of "$0" "$1"; }
 case "${1:-}" in -h | --help) usage 0 ;; -*) usage 2 ;; esac
 [ $# -le 1 ] || usage 2
-RECIPES=$(cd "$(dirname "$0")" && pwd)
-REPO=$(dirname "$RECIPES")
-if [ -n "${SPIKEMS:-}" ]; then S=$SPIKEMS
-elif [ -x "$REPO/build/spikems" ]; then S=$REPO/build/spikems
-else S=$(command -v spikems) || { echo "data.sh: no spikems: build it or set SPIKEMS" >&2; exit 1; }
-fi
+S=$(find_spikems)
 D=${1:-data}
 T=${THREADS:-$(nproc)}
 ONLY=${ONLY:-}

@@ -17,15 +17,12 @@
 #   data: recipes/data.sh (the held-out sets only: see its ONLY)
 # Environment: SPIKEMS (default build/spikems, else spikems on the PATH).
 set -euo pipefail
-usage() { sed -n '2,/^set -euo/{/^set -euo/d;s/^# \{0,1\}//p}' "$0" >&2; exit "$1"; }
+# shellcheck source-path=SCRIPTDIR source=common/paths.sh
+. "$(dirname "$0")/common/paths.sh"
+usage() { usage_of "$0" "$1"; }
 case "${1:-}" in -h | --help) usage 0 ;; esac
 [ $# -eq 2 ] || usage 2
-RECIPES=$(cd "$(dirname "$0")" && pwd)
-REPO=$(dirname "$RECIPES")
-if [ -n "${SPIKEMS:-}" ]; then S=$SPIKEMS
-elif [ -x "$REPO/build/spikems" ]; then S=$REPO/build/spikems
-else S=$(command -v spikems) || { echo "score.sh: no spikems: build it or set SPIKEMS" >&2; exit 1; }
-fi
+S=$(find_spikems)
 M=$1
 if [ ! -f "$M" ] && [ -f "$REPO/models/spikems-$M.safetensors" ]; then M=$REPO/models/spikems-$M.safetensors; fi
 [ -f "$M" ] || { echo "score.sh: no model $1" >&2; exit 1; }

@@ -13,8 +13,8 @@
 # for every stage and score instead of each config's own), GPU_DEVICE (the device of the GPU
 # stage; default cuda: `GPU_DEVICE=cpu` trains it on the CPU, about 16,000 samples).
 
-RECIPES=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-REPO=$(dirname "$RECIPES")
+# shellcheck source-path=SCRIPTDIR source=paths.sh
+. "$(dirname "${BASH_SOURCE[0]}")/paths.sh"
 GPU_DEVICE=${GPU_DEVICE:-cuda}
 
 say() { printf '%s %s\n' "$(date +%H:%M:%S)" "$*" >&2; }
@@ -24,17 +24,12 @@ die() { printf '%s: %s\n' "$(basename "$0")" "$*" >&2; exit 1; }
 recipe_start() {
   local script=$1; shift
   if [ $# -ne 1 ] || [ "$1" = -h ] || [ "$1" = --help ] || [ -z "$1" ]; then
-    sed -n '2,/^set -euo/{/^set -euo/d;s/^# \{0,1\}//p}' "$script" >&2
-    [ $# -eq 1 ] && { [ "$1" = -h ] || [ "$1" = --help ]; } && exit 0
-    exit 2
+    [ $# -eq 1 ] && { [ "$1" = -h ] || [ "$1" = --help ]; } && usage_of "$script" 0
+    usage_of "$script" 2
   fi
   mkdir -p "$1"
   OUT=$(cd "$1" && pwd)
-  if [ -n "${SPIKEMS:-}" ]; then :
-  elif [ -x "$REPO/build/spikems" ]; then SPIKEMS=$REPO/build/spikems
-  else SPIKEMS=$(command -v spikems) || die "no spikems: build it (scripts/build) or set SPIKEMS"
-  fi
-  SPIKEMS=$(cd "$(dirname "$SPIKEMS")" && pwd)/$(basename "$SPIKEMS")
+  SPIKEMS=$(find_spikems) || exit 1
   local data=${DATA:-$REPO/data}
   [ -d "$data" ] || die "no data folder $data: make it with recipes/data.sh (or set DATA)"
   data=$(cd "$data" && pwd)
