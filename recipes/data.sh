@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Makes the simulated data sets the shipped models' recipes train on and their scores use, with
-# `spikems simulate` (the `mod` preset and the presets in recipes/sim/) and fixed seeds: the
-# simulator reproduces a seed's rooms on every machine. Each set is a folder OUTDIR/NAME
+# `spikems simulate` (its presets) and fixed seeds: the simulator reproduces a seed's rooms on
+# every machine. Each set is a folder OUTDIR/NAME
 # (manifest.json + seq_XXXX.h5); NAME-ds2 is the same set at half resolution (173x130,
 # `spikems convert --downsample 2`) for the half-resolution stages. Sets already there are kept.
 #
@@ -63,9 +63,9 @@ sim() {
 }
 
 M=(--preset mod --mask-period 10ms)
-LA=$RECIPES/sim/mod-lookalikes.toml
-LS=$RECIPES/sim/modstatic-lookalikes.toml
-PF=$RECIPES/sim/poster-flat.toml
+LA=$REPO/configs/sim/mod-lookalikes.toml
+LS=$REPO/configs/sim/modstatic-lookalikes.toml
+PF=$REPO/configs/sim/poster-flat.toml
 # Validation and calibration.
 sim mod2-val 1 "${M[@]}" --sequences 8 --duration 1s --seed 3001
 sim posterflat-sim601 1 --config "$PF" --sequences 12 --duration 0.5s --seed 601

@@ -114,7 +114,9 @@ void add(CLI::App& app) {
                   "best pair is kept (default: the model's own gate)");
   cmd->add_option("--criterion", a.criterion,
                   "event-iou: TP/(TP+FP+FN) over all events of the windows (per-event labels); "
-                  "iou: the mean window IoU")
+                  "iou: the mean window IoU; detection: the paper's detection rate; "
+                  "recall: the share of moving events called moving (with --static: the most "
+                  "recall the static budget allows)")
       ->capture_default_str();
   cmd->add_option("--window", a.window, "Window length in ms for the scores")
       ->capture_default_str();

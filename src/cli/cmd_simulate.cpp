@@ -175,10 +175,10 @@ void add(CLI::App& app) {
       "  spikems simulate --preset mod --sequences 16 --duration 200ms --out data/look "
       "--preview\n"
       "  spikems simulate --config my.toml --out data/mine   (start from --print-config)\n"
-      "Presets: mod, mod-fixed, mod-translate, evimo, eed-net, poster, tiny (configs/sim/*.toml). "
-      "See docs/simulator.md.");
+      "Presets: configs/sim/*.toml (see --preset). See docs/simulator.md.");
   cmd->add_option("--preset", args.preset,
-                  "Scene preset: mod, mod-fixed, mod-translate, evimo, eed-net, poster, tiny")
+                  "Scene preset: mod, mod-fixed, mod-translate, mod-lookalikes, "
+                  "modstatic-lookalikes, evimo, eed-net, poster, poster-flat, tiny")
       ->check(CLI::IsMember(::spikems::sim::preset_names()));
   cmd->add_option("--config", args.config, "TOML config (replaces the preset)")
       ->check(CLI::ExistingFile);

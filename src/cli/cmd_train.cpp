@@ -1,7 +1,9 @@
 // `spikems train --config configs/train/NAME.toml --out DIR`: trains the SpikeMS network
-// (src/train/trainer/). This file only parses the command line and calls the trainer.
+// (src/train/trainer/); `--recipe FILE` runs a whole recipe of stages (cmd_train_recipe.h).
+// This file only parses the command line and calls the trainer or the recipe runner.
 #include <cstdio>
 
+#include "cli/cmd_train_recipe.h"
 #include "cli/command.h"
 #include "cli/torch_helper.h"
 #include "core/util/duration.h"
@@ -19,10 +21,47 @@ struct Args {
   bool quiet = false;
   std::string command;
   spikems::train::DistFlags dist;
+  std::string recipe, stage, restart;
+  bool list = false;
 };
+
+void run_recipe_command(const Args& a) {
+  const char* other = !a.config.empty()       ? "--config"
+                      : !a.resume.empty()     ? "--resume"
+                      : !a.set.empty()        ? "--set"
+                      : a.steps > 0           ? "--steps"
+                      : !a.kernels.empty()    ? "--kernels"
+                      : !a.time_limit.empty() ? "--time-limit"
+                                              : nullptr;
+  if (other)
+    spikems::fail("spikems train --recipe", "",
+                  std::string(other) +
+                      " does not go with --recipe: each stage's keys are in the recipe "
+                      "([stage.set])");
+  if (a.out.empty()) spikems::fail("spikems train --recipe", "", "give --out DIR");
+  spikems::cli::RecipeRunOptions o;
+  o.recipe = a.recipe;
+  o.out = a.out;
+  o.stage = a.stage;
+  o.restart = a.restart;
+  o.list = a.list;
+  o.quiet = a.quiet;
+  o.threads = a.threads;
+  o.device = a.device;
+  const spikems::train::DistOptions d = spikems::train::resolve_dist_options(a.dist);
+  o.rank = d.rank;
+  o.world_size = d.world_size;
+  o.master_addr = d.master_addr;
+  o.master_port = d.master_port;
+  o.dist_timeout_s = d.timeout_s;
+  spikems::cli::run_recipe(o);
+}
 
 void run(const Args& a) {
   using namespace spikems::train;
+  if (!a.recipe.empty()) return run_recipe_command(a);
+  if (!a.stage.empty() || !a.restart.empty() || a.list)
+    spikems::fail("spikems train", "", "--stage, --restart and --list go with --recipe FILE");
   std::vector<std::string> overrides = a.set;
   if (a.steps > 0) overrides.push_back("optim.steps=" + std::to_string(a.steps));
   if (a.threads >= 0) overrides.push_back("run.threads=" + std::to_string(a.threads));
@@ -77,13 +116,29 @@ void add(CLI::App& app) {
   cmd->add_option("--config,-c", a.config,
                   "training configuration (TOML, configs/train/; or a run's config.json)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--out,-o", a.out, "run folder: log, checkpoints, models");
+  cmd->add_option("--out,-o", a.out,
+                  "run folder: log, checkpoints, models (with --recipe: the recipe's output "
+                  "folder)");
+  cmd->add_option("--recipe", a.recipe,
+                  "run a whole recipe (TOML: data sets, then train, calibrate and eval stages) "
+                  "into --out; the same command again continues after a stop or a kill")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--stage", a.stage,
+                  "with --recipe: run only this stage (\"data\": the data sets); what it reads "
+                  "must be made");
+  cmd->add_flag("--list", a.list,
+                "with --recipe: print the stages (kind, expected time, done / resumable / "
+                "pending) and exit");
+  cmd->add_option("--restart", a.restart,
+                  "with --recipe: delete this stage's results and every later stage's done.json "
+                  "first (after its definition changed)");
   cmd->add_option("--resume", a.resume, "continue the run in this folder from its checkpoint")
       ->check(CLI::ExistingDirectory);
   cmd->add_option("--set", a.set, "override a config key: section.key=value (repeatable)");
   cmd->add_option("--steps", a.steps, "training length in steps (optim.steps)")
       ->check(CLI::Range(1, 1 << 30));
-  cmd->add_option("--threads", a.threads, "CPU threads (run.threads; 0 = all cores)")
+  cmd->add_option("--threads", a.threads,
+                  "CPU threads (run.threads; 0 = all cores; with --recipe: every stage's)")
       ->check(CLI::Range(0, 1024));
   cmd->add_option("--device", a.device, "cpu or cuda (run.device)")
       ->check(CLI::IsMember({"cpu", "cuda"}));
@@ -117,8 +172,12 @@ void add(CLI::App& app) {
       "at most 150 minutes, then a checkpoint)\n"
       "  spikems train --config configs/train/default.toml --out my-run --set optim.lr=0.002 "
       "--steps 500\n"
+      "  spikems train --recipe configs/recipes/quick.toml --out out/quick   (data, stages, "
+      "calibration, scores, summary.md; the same command again continues)\n"
+      "  spikems train --recipe configs/recipes/quick.toml --out out/quick --list   (each "
+      "stage's state)\n"
       "The run folder gets config.json, log.jsonl, curves.svg, checkpoint.pt, model.safetensors "
-      "and best.safetensors. Every key, and data-parallel runs (--world-size, --rank, "
+      "and best.safetensors. Every key, recipes, and data-parallel runs (--world-size, --rank, "
       "--master-addr on every process): docs/training.md.");
   cmd->callback([] {
     a.command = spikems::cli::invoked_command();

@@ -61,9 +61,10 @@ TEST(CalibrateCli, KeepsTheFactorWithTheBestEventIoUAndRecordsIt) {
   std::string out;
   const std::string cal = d + "/cal.safetensors";
   ASSERT_EQ(lc.calibrate("--factors 1,2,3,4,5 --window 10 --out " + cal, out), 0) << out;
-  // The event columns (event IoU, P, R, moving) of each factor's row; the window IoU column
-  // is left out (the output lags a step or two, so some spikes count in the next window).
-  auto row = [&](const std::string& factor) { return row_from(out, factor, 2); };
+  // The event columns (event IoU, P, R, moving) of each factor's row; the window IoU and
+  // detection columns are left out (the output lags a step or two, so some spikes count in the
+  // next window).
+  auto row = [&](const std::string& factor) { return row_from(out, factor, 3); };
   EXPECT_EQ(row("1"), " | 50.0 | 50.0 | 100.0 | 100.0 |  |") << out;
   EXPECT_EQ(row("2"), " | 50.0 | 50.0 | 100.0 | 100.0 |  |") << out;
   EXPECT_EQ(row("3"), " | 100.0 | 100.0 | 100.0 | 50.0 | chosen (event-iou) |") << out;
@@ -77,9 +78,26 @@ TEST(CalibrateCli, KeepsTheFactorWithTheBestEventIoUAndRecordsIt) {
                         &out),
             0)
       << out;
-  EXPECT_NE(out.find("| 3 | 84.5 | 100.0 | 100.0 | 100.0 | 50.0 | chosen (iou) |"),
+  EXPECT_NE(out.find("| 3 | 84.5 | 100.0 | 100.0 | 100.0 | 100.0 | 50.0 | chosen (iou) |"),
             std::string::npos)
       << out;
+  // Detection (over half of the moving pixels, and more of them than false ones): factor 1 calls
+  // as many background pixels as moving ones, none detected; 3 and 4
+  // detect every window and tie, 3 is nearer 1. Recall: 1, 3 and 4 all call every moving event
+  // moving, so the factor nearest 1 wins, background calls and all.
+  auto chosen_by = [&](const std::string& criterion) {
+    const std::string o = d + "/by_" + criterion + ".safetensors";
+    EXPECT_EQ(
+        run_command(spikems_binary() + " calibrate --quiet --model " + model + " --data " + data +
+                        " --factors 1,3,4 --window 10 --criterion " + criterion + " --out " + o,
+                    &out),
+        0)
+        << out;
+    return load_model(o).training.at("calibration").at("factor").get<double>();
+  };
+  EXPECT_EQ(chosen_by("detection"), 3.0) << out;
+  EXPECT_NE(out.find("| 1 | 38.0 | 0.0 | 50.0 |"), std::string::npos) << out;
+  EXPECT_EQ(chosen_by("recall"), 1.0) << out;
   const ModelSpec m = load_model(cal), base = load_model(model);
   EXPECT_FLOAT_EQ(m.layers[0].neuron.theta, 3 * base.layers[0].neuron.theta);
   EXPECT_EQ(m.layers[0].weight, base.layers[0].weight);
@@ -139,7 +157,7 @@ TEST(CalibrateCli, GatesAreTriedWithEveryFactorAndTheBestPairKept) {
   const std::string cal = d + "/cal.safetensors";
   ASSERT_EQ(lc.calibrate("--factors 1,3 --gates 5,1 --window 10 --out " + cal, out), 0) << out;
   auto row = [&](const std::string& factor_gate) {  // from the event IoU on
-    return row_from(out, factor_gate, 3);
+    return row_from(out, factor_gate, 4);
   };
   EXPECT_NE(out.find("| factor | gate ms |"), std::string::npos) << out;
   EXPECT_EQ(row("1 | 1"), " | 0.0 | 0.0 | 0.0 | 0.0 |  |") << out;
@@ -203,7 +221,7 @@ TEST(CalibrateCli, StaticScenesBudgetLimitsTheChoice) {
       << out;
   EXPECT_NE(out.find("| event R % | moving % | static moving % | |"), std::string::npos) << out;
   auto tail = [&](const std::string& factor) {  // the moving, static and choice columns
-    return row_from(out, factor, 5);
+    return row_from(out, factor, 6);
   };
   EXPECT_EQ(tail("1"), " | 100.0 | 100.0 (over) |  |") << out;
   EXPECT_EQ(tail("2"), " | 100.0 | 100.0 (over) |  |") << out;
@@ -247,7 +265,8 @@ TEST(CalibrateCli, BadInputStopsWithAClearMessageAndWritesNothing) {
   };
   const std::string m = "--model " + model + " --data " + data;
   fails(m + " --out " + model, "is the model itself");
-  fails(m + " --criterion f1 --out " + o, "'f1' is not a criterion");
+  fails(m + " --criterion f1 --out " + o,
+        "'f1' is not a criterion: use event-iou, iou, detection or recall");
   fails(m + " --factors 1,0 --out " + o, "--factors");
   fails(m + " --window 10,20 --out " + o, "one window length");
   fails(m + " --split dev --out " + o, "'dev' is not a split");

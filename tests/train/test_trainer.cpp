@@ -417,9 +417,13 @@ TEST(Trainer, SrmOnsetIsSetOnEveryLayer) {
   ov.push_back("run.val_full_s=0.0");
   auto same = ov;
   same.push_back("model.srm_onset=\"same_step\"");
+  same.push_back("model.tau_r=[2, 4, 8]");  // per level, the decoder mirrored
   ASSERT_EQ(train_quietly(same, scratch + "/same").steps, 1);
   const ModelSpec m = load_model(scratch + "/same/model.safetensors");
   for (const auto& l : m.layers) EXPECT_EQ(l.neuron.srm_onset, SrmOnset::SameStep);
+  ASSERT_EQ(m.layers.size(), 6u);
+  const float tau_r[] = {2, 4, 8, 8, 4, 2};
+  for (size_t k = 0; k < 6; ++k) EXPECT_EQ(m.layers[k].neuron.tau_r, tau_r[k]) << k;
   auto back = ov;
   back.push_back("model.init=\"" + scratch + "/same/model.safetensors\"");
   back.push_back("model.srm_onset=\"next_step\"");
@@ -657,6 +661,10 @@ TEST(Trainer, BadConfigsNameTheKey) {
   EXPECT_NE(msg({"model.tau_s=[1, 1]"}).find("model.tau_s: needs one time constant per level"),
             std::string::npos);
   EXPECT_NE(msg({"model.tau_s=[1, 0, 1]"}).find("model.tau_s: each must lie in 0.1..100 ms"),
+            std::string::npos);
+  EXPECT_NE(msg({"model.tau_r=[1, 1]"}).find("model.tau_r: needs one time constant per level"),
+            std::string::npos);
+  EXPECT_NE(msg({"model.tau_r=[1, 200, 1]"}).find("model.tau_r: each must lie in 0.1..100 ms"),
             std::string::npos);
   EXPECT_NE(msg({"model.tau_rho=-1.0"}).find("model.tau_rho: must lie in 0.01..100"),
             std::string::npos);

@@ -21,8 +21,10 @@ bool within_budget(const CalibrationOptions& opt, const CalibrationPoint& p) {
 }  // namespace
 
 CalibrationResult calibrate(const CalibrationOptions& opt) {
-  if (opt.criterion != "event-iou" && opt.criterion != "iou")
-    fail("--criterion", "", "'" + opt.criterion + "' is not a criterion: use event-iou or iou");
+  if (opt.criterion != "event-iou" && opt.criterion != "iou" && opt.criterion != "detection" &&
+      opt.criterion != "recall")
+    fail("--criterion", "",
+         "'" + opt.criterion + "' is not a criterion: use event-iou, iou, detection or recall");
   if (opt.factors.empty()) fail("--factors", "", "no factor to try");
   if (!(opt.max_static_moving >= 0 && opt.max_static_moving <= 100))
     fail("--max-static-moving", "", "must be a percentage between 0 and 100");
@@ -53,10 +55,11 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
     p.gate_steps = m.output_gate_steps;
     p.gate_ms = m.output_gate_steps * m.time_step_ms;
     EventCounts ev;
-    double iou_sum = 0;
+    double iou_sum = 0, detected = 0;
     for (const DatasetResult& d : m.datasets) {
       const WindowSummary& w = d.windows.at(0);
       iou_sum += w.iou_mean * double(w.windows);
+      detected += w.detection_rate * double(w.windows);
       p.windows += w.windows;
       ev += w.events;
     }
@@ -65,12 +68,16 @@ CalibrationResult calibrate(const CalibrationOptions& opt) {
            "no window of the data has moving objects: calibrating needs labelled moving "
            "events (check --data and --split)");
     p.iou = iou_sum / double(p.windows);
+    p.detection = detected / double(p.windows);
     const double union_ = double(ev.tp + ev.fp + ev.fn);
     p.event_iou = union_ > 0 ? 100 * double(ev.tp) / union_ : 0;
     p.precision = 100 * ev.precision();
     p.recall = 100 * ev.recall();
     p.moving = 100 * ev.moving_share();
-    p.score = opt.criterion == "iou" ? p.iou : p.event_iou;
+    p.score = opt.criterion == "iou"         ? p.iou
+              : opt.criterion == "detection" ? p.detection
+              : opt.criterion == "recall"    ? p.recall
+                                             : p.event_iou;
     r.points.push_back(p);
   }
   if (!opt.static_data.empty()) {
@@ -183,16 +190,17 @@ std::string calibration_table(const CalibrationOptions& opt, const CalibrationRe
   const bool gates = !opt.gates_us.empty(), statics = !opt.static_data.empty();
   std::string out = std::string("| factor |") + (gates ? " gate ms |" : "") + " IoU % (" +
                     fmt("%g", double(opt.window_us) / 1000.0) +
-                    " ms) | event IoU % | event P % | event R % | moving % |" +
+                    " ms) | detection % | event IoU % | event P % | event R % | moving % |" +
                     (statics ? " static moving % |" : "") + " |\n";
-  out += "|---|---|---|---|---|---|---|";
+  out += "|---|---|---|---|---|---|---|---|";
   out += std::string(gates ? "---|" : "") + (statics ? "---|" : "") + "\n";
   for (size_t i = 0; i < r.points.size(); ++i) {
     const CalibrationPoint& p = r.points[i];
     out +=
         "| " + fmt("%g", p.factor) + " | " + (gates ? fmt("%g", p.gate_ms) + " | " : "") +
-        fmt("%.1f", p.iou) + " | " + fmt("%.1f", p.event_iou) + " | " + fmt("%.1f", p.precision) +
-        " | " + fmt("%.1f", p.recall) + " | " + fmt("%.1f", p.moving) + " | " +
+        fmt("%.1f", p.iou) + " | " + fmt("%.1f", p.detection) + " | " + fmt("%.1f", p.event_iou) +
+        " | " + fmt("%.1f", p.precision) + " | " + fmt("%.1f", p.recall) + " | " +
+        fmt("%.1f", p.moving) + " | " +
         (statics ? fmt("%.1f", p.static_moving) + (within_budget(opt, p) ? "" : " (over)") + " | "
                  : "") +
         (i == r.best ? "chosen (" + opt.criterion + ")" : "") + " |\n";

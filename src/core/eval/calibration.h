@@ -21,7 +21,9 @@ struct CalibrationOptions {
   std::vector<int64_t> gates_us;
   int64_t window_us = 20000;
   // "event-iou": TP / (TP + FP + FN) over the events of all whole windows (the per-event view
-  // `spikems segment` gives; monotone in the event F1); "iou": the paper's mean window IoU.
+  // `spikems segment` gives; monotone in the event F1); "iou": the paper's mean window IoU;
+  // "detection": the paper's detection rate (metrics.h, is_detection); "recall": the share of
+  // moving events called moving, which only a static budget keeps from the lowest factor.
   std::string criterion = "event-iou";
   // Static scenes (every event background; simulator folders scored whole, or recordings): each
   // point's share of their events called moving is measured, and only points at or below
@@ -46,7 +48,7 @@ struct CalibrationPoint {
   int gate_steps = 0;  // the output gate it ran with (the model's own when none was swept)
   double gate_ms = 0;
   double score = 0;  // the criterion, percent (0-100)
-  double iou = 0, event_iou = 0, precision = 0, recall = 0, moving = 0;  // percent
+  double iou = 0, event_iou = 0, precision = 0, recall = 0, moving = 0, detection = 0;  // percent
   size_t windows = 0;
   double static_moving = -1;  // percent of the static scenes' events called moving; -1 = none
 };

@@ -20,15 +20,17 @@ const std::map<std::string, std::string>& table() {
 }  // namespace
 
 std::vector<std::string> preset_names() {
-  return {"mod", "mod-fixed", "mod-translate", "evimo", "eed-net", "poster", "tiny"};
+  return {"mod",   "mod-fixed", "mod-translate", "mod-lookalikes", "modstatic-lookalikes",
+          "evimo", "eed-net",   "poster",        "poster-flat",    "tiny"};
 }
 
 const std::string& preset_toml(const std::string& name) {
   auto it = table().find(name);
-  if (it == table().end())
-    fail("--preset", "",
-         "unknown preset '" + name +
-             "' (use mod, mod-fixed, mod-translate, evimo, eed-net, poster or tiny)");
+  if (it == table().end()) {
+    std::string names;
+    for (const auto& n : preset_names()) names += (names.empty() ? "" : ", ") + n;
+    fail("--preset", "", "unknown preset '" + name + "' (use one of " + names + ")");
+  }
   return it->second;
 }
 

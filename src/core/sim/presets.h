@@ -9,8 +9,7 @@
 
 namespace spikems::sim {
 
-std::vector<std::string>
-preset_names();  // mod, mod-fixed, mod-translate, evimo, eed-net, poster, tiny
+std::vector<std::string> preset_names();  // the names of configs/sim/*.toml, mod first
 // TOML text of a preset; throws Error listing the names when unknown.
 const std::string& preset_toml(const std::string& name);
 SimConfig preset_config(const std::string& name);

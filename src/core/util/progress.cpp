@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 namespace spikems {
 
@@ -34,6 +35,9 @@ std::string human_duration(double s) {
 ProgressBar::ProgressBar(std::string label, uint64_t total, std::string unit, bool enabled)
     : label_(std::move(label)), unit_(std::move(unit)), total_(total), enabled_(enabled) {
   start_ = last_draw_ = std::chrono::steady_clock::now();
+  if (const char* p = std::getenv("SPIKEMS_PROGRESS_PREFIX"); p && *p)
+    label_ = std::string(p) + " " + label_;
+  if (const char* a = std::getenv("SPIKEMS_PROGRESS_AFTER_S"); a && *a) after_s_ = std::atof(a);
 }
 
 ProgressBar::~ProgressBar() {
@@ -67,10 +71,12 @@ void ProgressBar::draw(bool final) {
   bool tty = isatty(fileno(stderr));
   // On a terminal the line is redrawn in place; in logs only the final line is written.
   if (!tty && !final) return;
-  std::fprintf(stderr, "%s%s [%s] %5.1f%% %s/%s %s %s/s %s %s%s%s%s", tty ? "\r" : "",
+  const std::string recipe =
+      !final && after_s_ >= 0 && eta >= 0 ? " recipe ETA " + human_duration(eta + after_s_) : "";
+  std::fprintf(stderr, "%s%s [%s] %5.1f%% %s/%s %s %s/s %s %s%s%s%s%s", tty ? "\r" : "",
                label_.c_str(), bar.c_str(), frac * 100, human_count(double(done_)).c_str(),
                human_count(double(total_)).c_str(), unit_.c_str(), human_count(rate).c_str(),
-               final ? "in" : "ETA", human_duration(final ? el : eta).c_str(),
+               final ? "in" : "ETA", human_duration(final ? el : eta).c_str(), recipe.c_str(),
                status_.empty() ? "" : "  ", status_.c_str(), final ? "\n" : "   ");
   std::fflush(stderr);
 }

@@ -1,5 +1,8 @@
 // A progress bar on stderr with rate and ETA, for every long command. Redraws at most
 // 10 times a second; prints a final line on finish(). Quiet when disabled.
+// Inside a recipe (`spikems train --recipe`) the runner sets SPIKEMS_PROGRESS_PREFIX (e.g.
+// "[3/6 student]"), put before the label, and SPIKEMS_PROGRESS_AFTER_S, the seconds the stages
+// after this one are expected to take: the bar then also shows "recipe ETA <its ETA + them>".
 #pragma once
 
 #include <chrono>
@@ -21,6 +24,7 @@ class ProgressBar {
  private:
   void draw(bool final);
   std::string label_, unit_, status_;
+  double after_s_ = -1;  // SPIKEMS_PROGRESS_AFTER_S; < 0: none
   uint64_t total_, done_ = 0;
   bool enabled_, finished_ = false;
   std::chrono::steady_clock::time_point start_, last_draw_;

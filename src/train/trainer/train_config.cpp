@@ -9,10 +9,9 @@
 
 #include "core/model/model_file.h"
 #include "core/util/error.h"
+#include "train/trainer/toml_json.h"
 
 namespace spikems::train {
-
-namespace {
 
 nlohmann::json toml_to_json(const toml::node& n) {
   if (auto t = n.as_table()) {
@@ -31,6 +30,8 @@ nlohmann::json toml_to_json(const toml::node& n) {
   if (auto v = n.as_boolean()) return v->get();
   return nullptr;  // dates and times: no key takes them; the type check names the key
 }
+
+namespace {
 
 // "section.key=value": the value in TOML syntax ("0.5", "true", "[1, 2]", "\"x\""); a bare
 // word that is not valid TOML is taken as a string (so --set model.neurons=fir works).
@@ -206,6 +207,7 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
   if (c.channels.empty() || c.channels.size() > 6)
     b.bad("model", "channels", "needs 1 to 6 encoder levels (the paper: [16, 32, 64])");
   b.bind_list("model", "tau_s", c.tau_s);
+  b.bind_list("model", "tau_r", c.tau_r);
   b.bind("model", "skips", c.skips);
   b.bind("model", "readout", c.readout);
   b.bind("model", "output_gate_ms", c.output_gate_ms);
@@ -243,6 +245,14 @@ TrainConfig train_config_from_json(nlohmann::json j, const std::string& source,
               std::to_string(2 * c.channels.size()) + "), or [] for the paper's");
   for (double t : c.tau_s)
     if (!(t >= 0.1 && t <= 100)) b.bad("model", "tau_s", "each must lie in 0.1..100 ms");
+  if (!c.tau_r.empty() && c.tau_r.size() != c.channels.size() &&
+      c.tau_r.size() != 2 * c.channels.size())
+    b.bad("model", "tau_r",
+          "needs one time constant per level of model.channels (" +
+              std::to_string(c.channels.size()) + ") or per layer (" +
+              std::to_string(2 * c.channels.size()) + "), or [] for the paper's");
+  for (double t : c.tau_r)
+    if (!(t >= 0.1 && t <= 100)) b.bad("model", "tau_r", "each must lie in 0.1..100 ms");
   c.init_rates.assign(2 * c.channels.size(), 0.03);
   c.init_rates.back() = 0.02;
   b.bind_list("model", "init_rates", c.init_rates);

@@ -27,6 +27,9 @@ struct TrainConfig {
   // Synaptic time constant (ms) per level, encoder and decoder layer alike (empty: the
   // paper's 2, 2, 4, levels past the third 4). Each layer answers ~tau_s late.
   std::vector<double> tau_s;
+  // Refractory time constant (ms) per level or per layer, as tau_s (empty: the paper's 1, 1, 3,
+  // levels past the third 3). A network made for 10 ms steps takes 5x the values of 2 ms steps.
+  std::vector<double> tau_r;
   // U-Net skip connections (encoder level i into the decoder layer at its resolution): the
   // gradient's short path through a deep stack (docs/training.md, "Skip connections").
   bool skips = false;

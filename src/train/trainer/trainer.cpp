@@ -73,6 +73,11 @@ ModelSpec initial_spec(const TrainConfig& c) {
                                 c.channels, c.tau_s, c.skips, c.skip_levels);
     for (auto& l : spec.layers)
       l.neuron.surrogate = c.surrogate == "slayer" ? SurrogateForm::Slayer : SurrogateForm::SpikeMS;
+    // Encoder layer k is level k; the decoder mirrors it (layer 2n-1-k is level k).
+    const size_t n = c.channels.size();
+    for (size_t k = 0; k < spec.layers.size() && !c.tau_r.empty(); ++k)
+      spec.layers[k].neuron.tau_r =
+          float(c.tau_r.size() == 2 * n ? c.tau_r[k] : c.tau_r[k < n ? k : 2 * n - 1 - k]);
   }
   if (c.tau_rho > 0)
     for (auto& l : spec.layers) l.neuron.tau_rho = float(c.tau_rho);

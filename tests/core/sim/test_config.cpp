@@ -1,6 +1,8 @@
 // Config files: presets equal the committed TOML files, every key parses, typos are errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -23,6 +25,12 @@ TEST(SimConfig, PresetsMatchConfigFiles) {
     SimConfig c = preset_config(n);
     EXPECT_EQ(c.name, n);
   }
+  // ... and every file of the folder is a named preset.
+  const auto names = preset_names();
+  for (const auto& e :
+       std::filesystem::directory_iterator(spikems::test::source_dir() + "/configs/sim"))
+    EXPECT_NE(std::find(names.begin(), names.end(), e.path().stem().string()), names.end())
+        << e.path();
   EXPECT_EQ(preset_config("mod").width, 346);
   EXPECT_EQ(preset_config("tiny").width, 64);
   EXPECT_TRUE(preset_config("eed-net").net);
