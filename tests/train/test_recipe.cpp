@@ -313,7 +313,7 @@ UserData make_user_data(const std::string& dir) {
   return u;
 }
 
-TEST(RecipeSlow, UsersDataInEveryLayoutIsRewrittenAtItsResolution) {
+TEST(Recipe, UsersDataInEveryLayoutIsRewrittenAtItsResolution) {
   const std::string dir = scratch_dir(), out = dir + "/out";
   const UserData u = make_user_data(dir);
   // Three sets at half resolution, a two-step student on each.
