@@ -3,7 +3,7 @@
 // is replaced by edge values of every JSON type, or removed, and the file is then loaded and,
 // when it is accepted, built into the streaming runtime and run on a few events. Each case must
 // end in a spikems::Error or a finished run: never a crash, another exception type, or a run
-// that allocates without bound.
+// that allocates without bound. About 30 s: ctest label "slow".
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -39,8 +39,8 @@ void collect(const Json& j, const Json::json_pointer& at, std::vector<Json::json
   }
 }
 
-TEST(ModelMutations, EveryLeafReplacedOrRemovedGivesAnErrorOrARun) {
-  const std::string path = test::source_dir() + "/models/spikems-fast.safetensors";
+TEST(ModelMutationsSlow, EveryLeafReplacedOrRemovedGivesAnErrorOrARun) {
+  const std::string path = test::source_dir() + "/models/spikems-default.safetensors";
   SafeTensors st = read_safetensors(path);
   const Json spec = Json::parse(st.metadata.at("spec"));
   std::vector<Json::json_pointer> leaves, members;
