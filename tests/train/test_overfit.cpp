@@ -1,5 +1,6 @@
 // The network, loss and optimizer can learn: on one fixed batch of simulated samples, Adam
-// drives the loss down and the window IoU up (a broken gradient path would not).
+// drives the loss down and the window IoU up (a broken gradient path would not). About 23 s:
+// ctest label "slow"; Trainer.LossFallsAndValidationBeatsTheUntrainedNetwork runs in CI.
 #include <gtest/gtest.h>
 
 #include "common/test_paths.h"
@@ -13,7 +14,7 @@
 namespace spikems::train {
 namespace {
 
-TEST(Overfit, OneBatchIsLearnt) {
+TEST(OverfitSlow, OneBatchIsLearnt) {
   const std::string dir = test::scratch_dir() + "/data";
   std::string out;
   ASSERT_EQ(test::run_command(test::spikems_binary() +
