@@ -37,6 +37,8 @@
 #include "core/util/atomic_file.h"
 #include "core/util/duration.h"
 #include "core/util/error.h"
+#include "core/util/host_info.h"
+#include "core/util/text_format.h"
 #include "spikems/version.h"
 #include "train/trainer/toml_json.h"
 #include "train/trainer/train_config.h"
@@ -56,12 +58,6 @@ using ojson = nlohmann::ordered_json;
 // The same value as an ordered_json (output files keep their keys in the written order).
 ojson ordered(const json& j) {
   return ojson::parse(j.dump());
-}
-
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
 }
 
 // FNV-1a, 64 bit: a stable fingerprint of a stage's definition or a kept file (not security).
@@ -163,14 +159,6 @@ std::string shell_line(const std::vector<std::string>& argv) {
 
 int hardware_threads() {
   return std::max(1, int(std::thread::hardware_concurrency()));
-}
-
-std::string cpu_model() {
-  std::ifstream in("/proc/cpuinfo");
-  for (std::string line; std::getline(in, line);)
-    if (line.rfind("model name", 0) == 0 && line.find(':') != line.npos)
-      return line.substr(line.find(':') + 2);
-  return "unknown CPU";
 }
 
 // ---------------------------------------------------------------- child processes
@@ -1549,7 +1537,7 @@ class Runner {
     j["summary"] = r_.summary;
     j["model"] = r_.model;
     j["spikems_version"] = SPIKEMS_VERSION;
-    j["hardware"] = {{"cpu", cpu_model()},
+    j["hardware"] = {{"cpu", cpu_name()},
                      {"threads", threads_ > 0 ? threads_ : hardware_threads()}};
     if (!o_.device.empty()) j["hardware"]["device"] = o_.device;
     if (o_.world_size > 1) j["hardware"]["world_size"] = o_.world_size;

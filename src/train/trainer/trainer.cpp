@@ -20,6 +20,7 @@
 #include "core/model/time_step.h"
 #include "core/util/atomic_file.h"
 #include "core/util/error.h"
+#include "core/util/host_info.h"
 #include "core/util/interrupt.h"
 #include "core/util/progress.h"
 #include "core/viz/svg_plot.h"
@@ -89,14 +90,6 @@ ModelSpec initial_spec(const TrainConfig& c) {
     spec.validate("model.srm_onset");
   }
   return spec;
-}
-
-std::string cpu_name() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
-  return "unknown CPU";
 }
 
 double lr_at(const TrainConfig& c, int64_t step) {
