@@ -3,8 +3,8 @@
 // only (NeuronKernels::Ops: per-step tensor ops for the psp filter and the spike loop), in one
 // process: 128x128 crops with T = 40 (the default training sample: 30 ms warm-up + 10 ms
 // window) and the whole 346x260 sensor with T = 10. Reports ms per step, samples/s and the peak
-// GPU memory of the step (CUDA caching allocator). Weights: the shipped `fine` model, so the
-// firing rates are those of a trained network; input: 2 % of pixels spike per step.
+// GPU memory of the step (CUDA caching allocator). Weights: the shipped `default` model, so
+// the firing rates are those of a trained network; input: 2 % of pixels spike per step.
 // Skips where the build has no CUDA kernels or no GPU is present.
 // Run: build/bench_train_gpu  (figures: docs/performance.md, "Training on a GPU").
 #include <benchmark/benchmark.h>
@@ -28,7 +28,8 @@ using namespace spikems;
 using namespace spikems::train;
 
 [[maybe_unused]] ModelSpec model() {
-  const std::string shipped = std::string(SPIKEMS_SOURCE_DIR) + "/models/spikems-fine.safetensors";
+  const std::string shipped =
+      std::string(SPIKEMS_SOURCE_DIR) + "/models/spikems-default.safetensors";
   if (std::filesystem::exists(shipped)) return load_model(shipped);
   ModelSpec s = spikems_architecture(true);  // random weights where the model file is absent
   torch::manual_seed(0);

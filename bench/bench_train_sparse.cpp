@@ -8,7 +8,7 @@
 // `run.kernels = "auto"` takes its rule.
 //
 // Run from the repository root (figures: docs/performance.md):
-//   build/bench_train_sparse [--data data/mod2-train] [--model models/spikems-fine.safetensors]
+//   build/bench_train_sparse [--data data/mod2-train] [--model models/spikems-default.safetensors]
 //                            [--reps 3] [--threads 0] [--layers]
 // Without a dataset folder the input is random spikes at 2 % density (said in the output).
 #include <sys/resource.h>
@@ -41,7 +41,7 @@ using namespace spikems::train;
 using Clock = std::chrono::steady_clock;
 
 struct Options {
-  std::string config = "configs/train/default.toml", model = "models/spikems-fine.safetensors",
+  std::string config = "configs/train/default.toml", model = "models/spikems-default.safetensors",
               data = "data/mod2-train";
   int reps = 3, threads = 0, crop = 128, batch = 8;
   std::vector<double> rates = {0.01, 0.03, 0.06, 0.12, 0.25};

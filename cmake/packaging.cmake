@@ -9,8 +9,7 @@ install(TARGETS spikems RUNTIME DESTINATION bin)
 if(TARGET spikems-torch)
   install(TARGETS spikems-torch RUNTIME DESTINATION lib/spikems)
 endif()
-install(FILES models/spikems-default.safetensors models/spikems-fast.safetensors
-              models/spikems-fine.safetensors models/spikems-full.safetensors models/README.md
+install(FILES models/spikems-default.safetensors models/spikems-fast.safetensors models/README.md
         DESTINATION share/spikems/models)
 # The simulator's presets are compiled into the binary (configs/sim/*.toml →
 # generated/sim_presets.inc), so there is nothing to install for them.

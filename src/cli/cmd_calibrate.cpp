@@ -96,9 +96,8 @@ void add(CLI::App& app) {
       "--out calibrated.safetensors\n"
       "  spikems calibrate --model m.safetensors --data data/mod-val --split all --static "
       "data/static-val --max-static-moving 5 --gates 0,10 --out m-cal.safetensors");
-  cmd->add_option(
-         "--model", a.model,
-         "The model file to calibrate (or a shipped model's name: default, fast, fine, full)")
+  cmd->add_option("--model", a.model,
+                  "The model file to calibrate (or a shipped model's name: default or fast)")
       ->required();
   cmd->add_option("--data", a.data,
                   "Labelled validation data: simulator folders or recordings (repeat for more)")

@@ -63,10 +63,9 @@ void add(CLI::App& app) {
       "Examples:\n"
       "  spikems energy --model m.safetensors --data data/mod --out energy-out\n"
       "  spikems energy --model m.safetensors --data rec.h5 --window-ms 20 --max-seconds 2");
-  cmd->add_option(
-      "--model", a.model,
-      "Model file, or a shipped model's name (default, fast, fine, full; default: the shipped "
-      "default)");
+  cmd->add_option("--model", a.model,
+                  "Model file, or a shipped model's name (default or fast; default: the shipped "
+                  "default)");
   cmd->add_option("--data", a.data,
                   "A `spikems simulate` folder (manifest.json) or an event file; repeatable");
   cmd->add_option("--split", a.split, "Split of simulator folders: train, val, test or all")

@@ -130,10 +130,9 @@ void add(CLI::App& app) {
       "--group-windows 8   (the SpikeMS authors' protocol)\n"
       "  spikems eval --model a.safetensors --model b.safetensors --baseline all-events --data "
       "data/mod --windows 10,20,100 --max-seconds 0.5   (several models on the same windows)");
-  cmd->add_option(
-      "--model", a.models,
-      "Model file (.safetensors, spikems format) or a shipped model's name (default, "
-      "fast, fine, full); repeat to compare several (default: the shipped default model)");
+  cmd->add_option("--model", a.models,
+                  "Model file (.safetensors, spikems format) or a shipped model's name (default "
+                  "or fast); repeat to compare several (default: the shipped default model)");
   cmd->add_option("--baseline", a.baselines,
                   "Also score a baseline on the same windows: all-events (every pixel with an "
                   "event predicted moving); repeatable")

@@ -390,15 +390,12 @@ void add(CLI::App& app) {
       "masks\n"
       "  camera_driver | spikems segment --input - --width 346 --height 260 --out -   (live: "
       "text 't x y p' lines in, labelled lines out)");
-  cmd->add_option(
-      "--model", a.model,
-      "Model file (.safetensors, spikems format), or a shipped model's name: "
-      "default (models/spikems-default.safetensors, or $SPIKEMS_MODEL; the default: "
-      "half resolution, 10 ms steps, the threshold that keeps static scenes quiet), fast "
-      "(models/spikems-fast.safetensors: the same network at a lower threshold, more "
-      "recall), fine (models/spikems-fine.safetensors: half resolution, 5 ms steps, ~1.5x "
-      "slower, 15 ms label latency) or full (models/spikems-full.safetensors: full "
-      "resolution, 10 ms steps, ~2x slower; models/README.md)");
+  cmd->add_option("--model", a.model,
+                  "Model file (.safetensors, spikems format), or a shipped model's name: default "
+                  "(models/spikems-default.safetensors, or $SPIKEMS_MODEL: half resolution "
+                  "(173x130), the shipped default) or fast (models/spikems-fast.safetensors: "
+                  "half resolution, 10 ms steps, for the highest speed, about 5x real time on one "
+                  "core; models/README.md)");
   cmd->add_option("--input", a.input, "Event file (any format), or - for text 't x y p' on stdin")
       ->required();
   cmd->add_option("--out", a.out,

@@ -286,6 +286,7 @@ struct DataSet {
   std::vector<std::string> sim_args;  // `spikems simulate` options (no --out, --threads)
   std::string describe;               // "simulate --preset mod ..." or the path
   std::string path;                   // absolute (path sets)
+  std::string from;                   // another simulated set, made again at 1/downsample
   int downsample = 1, mask_dilation = 5;
   double expected_s = 0;
   std::string hash;
@@ -473,16 +474,28 @@ class RecipeReader {
       if (!good_name(d.name))
         fail(r_.path, d.where, "a data set's name must be letters, digits, '-' or '_'");
       Keys k(*v.as_table(), r_.path, d.where);
-      k.check({"simulate", "path", "downsample", "time", "mask_dilation"});
+      k.check({"simulate", "path", "from", "downsample", "time", "mask_dilation"});
       const toml::node* sim = k.get("simulate");
       const auto path = k.str("path");
-      if (bool(sim) == bool(path))
+      const auto from = k.str("from");
+      if (int(bool(sim)) + int(bool(path)) + int(bool(from)) != 1)
         k.bad(
-            "needs either \"simulate\" (a table of `spikems simulate` options) or \"path\" (a "
-            "folder or file of labelled events)");
+            "needs one of \"simulate\" (a table of `spikems simulate` options), \"path\" (a "
+            "folder or file of labelled events) or \"from\" (another simulated set of this "
+            "recipe, with \"downsample\")");
       d.downsample = int(k.integer("downsample", 1, 64).value_or(1));
       d.expected_s = k.duration_s("time");
       json def = {{"downsample", d.downsample}};
+      if (from) {
+        // The same rooms at two resolutions cost one simulation: a full-resolution stage and
+        // the half-resolution ones read the same sequences.
+        if (d.downsample < 2) k.bad("\"from\" needs \"downsample\" of 2 or more");
+        if (k.get("mask_dilation")) k.bad("\"mask_dilation\" is for \"path\" sets (mask frames)");
+        d.from = *from;
+        d.describe = "data set " + d.from;
+        r_.data.push_back(std::move(d));  // hashed below, once its source's hash is known
+        continue;
+      }
       if (sim) {
         if (!sim->is_table()) k.bad("\"simulate\" must be a table, e.g. { preset = \"mod\" }");
         if (k.get("mask_dilation")) k.bad("\"mask_dilation\" is for \"path\" sets (mask frames)");
@@ -501,6 +514,18 @@ class RecipeReader {
       d.hash = hash_text(def.dump());
       r_.data.push_back(std::move(d));
     }
+    for (auto& d : r_.data) {
+      if (d.from.empty()) continue;
+      const auto src = std::find_if(r_.data.begin(), r_.data.end(),
+                                    [&](const DataSet& s) { return s.name == d.from; });
+      if (src == r_.data.end() || !src->simulated)
+        fail(r_.path, d.where,
+             "\"from\" = \"" + d.from + "\" must name a \"simulate\" set of this recipe");
+      d.hash = hash_text(json{{"from", src->hash}, {"downsample", d.downsample}}.dump());
+    }
+    // Sources first: TOML tables come in name order, not file order.
+    std::stable_partition(r_.data.begin(), r_.data.end(),
+                          [](const DataSet& d) { return d.from.empty(); });
   }
 
   void read_simulate(const toml::table& sim, DataSet& d, json& def) {
@@ -1222,7 +1247,9 @@ class Runner {
     const std::string res =
         d.downsample > 1 ? " at 1/" + std::to_string(d.downsample) + " resolution" : "";
     std::fprintf(stderr, "  data/%s: %s%s\n", d.name.c_str(), d.describe.c_str(), res.c_str());
-    if (d.simulated) {
+    if (!d.from.empty()) {
+      downsample_simulated(i, d, dir / d.from, partial);
+    } else if (d.simulated) {
       const fs::path sim = d.downsample > 1 ? dir / ("." + d.name + ".sim.partial") : partial;
       fs::remove_all(sim, ec);
       Spawn sp;

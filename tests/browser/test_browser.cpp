@@ -201,7 +201,7 @@ TEST_F(Browser, DemoPageAndItsReportRender) {
       fs::exists(fs::path(test::source_dir()) / "../shared/reference/spikems-evimo/weights.npz");
   EXPECT_EQ(count(index.dom, "<tr><td>"), evimo ? 4u : 3u);
   for (const char* row :
-       {"default (shipped)", "full (--model full)", "every event moving (baseline)"})
+       {"default (shipped)", "fast (--model fast)", "every event moving (baseline)"})
     EXPECT_NE(index.dom.find(std::string("<tr><td>") + row + "</td>"), std::string::npos) << row;
   if (evimo) {
     EXPECT_NE(index.dom.find("<tr><td>EV-IMO (the authors' model)</td>"), std::string::npos);

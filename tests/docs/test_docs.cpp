@@ -193,7 +193,7 @@ std::vector<std::pair<int, std::string>> links_in(const fs::path& md) {
 std::vector<fs::path> documentation_files() {
   fs::path root = source_dir();
   std::vector<fs::path> files{root / "README.md", root / "CHANGELOG.md"};
-  for (const char* dir : {"docs", "models", "recipes"}) {
+  for (const char* dir : {"docs", "models"}) {
     if (!fs::exists(root / dir)) continue;
     for (const auto& e : fs::recursive_directory_iterator(root / dir))
       if (e.path().extension() == ".md") files.push_back(e.path());
@@ -225,7 +225,7 @@ TEST(DocsExamples, ReadmeScriptsExist) {
   int n = 0;
   for (const auto& l : code_lines(fs::path(source_dir()) / "README.md")) {
     for (const auto& seg : shell_segments(l.text)) {
-      static const std::regex re(R"(^\s*(?:[A-Z_][A-Z0-9_]*=\S*\s+)*((?:scripts|recipes)/\S+))");
+      static const std::regex re(R"(^\s*(?:[A-Z_][A-Z0-9_]*=\S*\s+)*(scripts/\S+))");
       std::smatch m;
       if (!std::regex_search(seg, m, re)) continue;
       fs::path p = fs::path(source_dir()) / m[1].str();

@@ -12,11 +12,15 @@ cmake --install "$build" --prefix "$prefix" >/dev/null
 exe=$prefix/bin/spikems
 model=$prefix/share/spikems/models/spikems-default.safetensors
 for f in "$exe" "$model" "$prefix/share/spikems/models/README.md" \
-  "$prefix/share/spikems/models/spikems-fine.safetensors" "$prefix/share/spikems/models/spikems-fast.safetensors" \
+  "$prefix/share/spikems/models/spikems-fast.safetensors" \
   "$prefix/share/doc/spikems/README.md" "$prefix/share/doc/spikems/LICENSE" \
   "$prefix/share/doc/spikems/docs/cli.md"; do
   [ -f "$f" ] || fail "$f not installed"
 done
+# Exactly the two shipped models (default and fast) and their card.
+installed=$(cd "$prefix/share/spikems/models" && echo *)
+[ "$installed" = "README.md spikems-default.safetensors spikems-fast.safetensors" ] ||
+  fail "installed models: $installed"
 cmp -s "$model" "$(dirname "$0")/../../models/spikems-default.safetensors" ||
   fail "installed model differs from models/spikems-default.safetensors"
 
@@ -31,13 +35,11 @@ seg --out default.txt >/dev/null || fail "segment without --model: $(seg --out d
 seg --out named.txt --model "$model" >/dev/null || fail "segment --model $model"
 cmp -s "$work/default.txt" "$work/named.txt" || fail "default and named model disagree"
 [ "$(grep -vc '^#' "$work/default.txt")" = 3 ] || fail "not one label per event"
-# The other shipped models by their names: the installed files.
-for name in fast full; do
-  seg --out $name.txt --model $name >/dev/null || fail "segment --model $name: $(seg --out $name.txt --model $name)"
-  seg --out ${name}named.txt --model "$prefix/share/spikems/models/spikems-$name.safetensors" >/dev/null ||
-    fail "segment --model spikems-$name.safetensors"
-  cmp -s "$work/$name.txt" "$work/${name}named.txt" || fail "--model $name and its file disagree"
-done
+# The other shipped model by its name: the installed file.
+seg --out fast.txt --model fast >/dev/null || fail "segment --model fast: $(seg --out fast.txt --model fast)"
+seg --out fastnamed.txt --model "$prefix/share/spikems/models/spikems-fast.safetensors" >/dev/null ||
+  fail "segment --model spikems-fast.safetensors"
+cmp -s "$work/fast.txt" "$work/fastnamed.txt" || fail "--model fast and its file disagree"
 
 # 2. <exe>/../models/ (the source-tree place) comes first: a broken file there is the one read.
 mkdir "$prefix/models"

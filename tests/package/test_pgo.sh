@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # scripts/build_pgo gives a spikems whose labels, masks and scores are byte for byte the plain
 # build's, on a room that is not the profile's (seed 9502 against the profile's 9501), for the
-# default model and `fine`. Two builds of `spikems`: "slow" (ctest -L pgo).
+# default model and `fast`. Two builds of `spikems`: "slow" (ctest -L pgo).
 #   test_pgo.sh BUILD_DIR    (the plain build holding spikems)
 set -euo pipefail
 plain=$(cd "$1" && pwd)/spikems
@@ -18,7 +18,7 @@ pgo="$tmp/pgo/spikems"
   --no-progress --out "$tmp/room" >/dev/null
 room=$(ls "$tmp"/room/*.h5 | head -n 1)
 cd "$src"
-for m in default fine; do
+for m in default fast; do
   for b in plain pgo; do
     "${!b}" segment --quiet --model "models/spikems-$m.safetensors" --input "$room" --out "$tmp/$b-$m.txt" \
       --labels "$tmp/$b-$m.npy" --masks-dir "$tmp/$b-$m-masks" --score >"$tmp/$b-$m.score"

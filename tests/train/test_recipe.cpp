@@ -12,9 +12,9 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "common/test_paths.h"
+#include "common/text_file.h"
 #include "core/events/formats/npy.h"
 #include "core/events/io.h"
 #include "core/model/model_file.h"
@@ -28,15 +28,8 @@ using test::run_command;
 using test::scratch_dir;
 using test::spikems_binary;
 
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 json read_json(const std::string& path) {
-  return json::parse(slurp(path));
+  return json::parse(test::read_text(path));
 }
 
 std::string tiny_recipe() {
@@ -47,7 +40,7 @@ std::string tiny_recipe() {
 std::string edited_recipe(const std::string& dir,
                           const std::vector<std::pair<std::string, std::string>>& edits,
                           const std::string& name = "recipe.toml") {
-  std::string text = slurp(tiny_recipe());
+  std::string text = test::read_text(tiny_recipe());
   for (const auto& [from, to] : edits) {
     const size_t at = text.find(from);
     EXPECT_NE(at, std::string::npos) << from;
@@ -134,7 +127,7 @@ TEST(Recipe, TinyRecipeRunsEveryKindOfStageAndResumesAStageThatDied) {
       d["windows"][0]["iou_mean"].get<double>(), d["windows"][1]["iou_mean"].get<double>(),
       d["windows"][0]["detection_rate"].get<double>(),
       d["windows"][1]["detection_rate"].get<double>());
-  const std::string md = slurp(out + "/summary.md");
+  const std::string md = test::read_text(out + "/summary.md");
   EXPECT_NE(md.find(row), std::string::npos) << row << "\n" << md;
   const json sum = read_json(out + "/summary.json");
   ASSERT_EQ(sum["stages"].size(), 5u);
@@ -143,7 +136,7 @@ TEST(Recipe, TinyRecipeRunsEveryKindOfStageAndResumesAStageThatDied) {
   EXPECT_NEAR(sum["total_wall_s"].get<double>(), total, 1e-6);
   EXPECT_GT(total, 0);
   EXPECT_EQ(sum["scores"][0]["iou"][1], d["windows"][1]["iou_mean"]);
-  EXPECT_EQ(slurp(out + "/recipe.toml"), slurp(tiny_recipe()));
+  EXPECT_EQ(test::read_text(out + "/recipe.toml"), test::read_text(tiny_recipe()));
 
   // Resume: the student again, its trainer dying after step 12 (checkpoints every 5 steps);
   // the same command then resumes it and ends with the uninterrupted run's weights.
@@ -228,6 +221,10 @@ TEST(Recipe, BadRecipesNameFileTableAndReasonAndRunNothing) {
        "kind \"calibration\" is not one of train, calibrate, eval"},
       {"\"optim.steps\" = 20", "\"optim.stepz\" = 20", "stage[1] \"teacher\"",
        "optim.stepz: unknown key"},
+      {"[data.val]", "[data.half]\nfrom = \"rooms\"\n\n[data.val]", "data.half",
+       "\"from\" needs \"downsample\" of 2 or more"},
+      {"[data.val]", "[data.half]\nfrom = \"nosuch\"\ndownsample = 2\n\n[data.val]", "data.half",
+       "\"from\" = \"nosuch\" must name a \"simulate\" set of this recipe"},
   };
   for (size_t i = 0; i < cases.size(); ++i) {
     const Case& c = cases[i];
@@ -356,6 +353,36 @@ TEST(Recipe, UsersDataInEveryLayoutIsRewrittenAtItsResolution) {
   EXPECT_TRUE(fs::exists(out + "/mine.safetensors"));  // the last train stage's, copied
 }
 
+// `from`: a simulated set made again at 1/2 resolution without simulating it twice. "a-half"
+// sorts before its source, so the runner must order the sets itself.
+TEST(Recipe, FromSetIsItsSourceAtLowerResolution) {
+  const std::string dir = scratch_dir(), out = dir + "/out";
+  const std::string file = edited_recipe(
+      dir, {{"[data.val]", "[data.a-half]\nfrom = \"rooms\"\ndownsample = 2\n\n[data.val]"}});
+  std::string log;
+  ASSERT_EQ(recipe(file, out, "--stage data", &log), 0) << log;
+  const json src = read_json(out + "/data/rooms/manifest.json");
+  const json half = read_json(out + "/data/a-half/manifest.json");
+  EXPECT_EQ(src["sensor"], json({32, 24}));
+  EXPECT_EQ(half["sensor"], json({16, 12}));
+  ASSERT_EQ(half["sequences"].size(), src["sequences"].size());
+  const Recording a = read_recording(out + "/data/rooms/seq_0001.h5");
+  const Recording b = read_recording(out + "/data/a-half/seq_0001.h5");
+  ASSERT_EQ(b.events.size(), a.events.size());
+  ASSERT_TRUE(b.events.has_labels());
+  for (size_t i = 0; i < a.events.size(); ++i) {
+    ASSERT_EQ(b.events.x[i], a.events.x[i] / 2) << i;
+    ASSERT_EQ(b.events.y[i], a.events.y[i] / 2) << i;
+    ASSERT_EQ(b.events.label[i], a.events.label[i]) << i;
+  }
+  // Its definition follows its source's: a changed source makes the data stage "changed".
+  const std::string changed = edited_recipe(
+      dir, {{"[data.val]", "[data.a-half]\nfrom = \"rooms\"\ndownsample = 2\n\n[data.val]"},
+            {"seed = 11", "seed = 13"}});
+  EXPECT_NE(recipe(changed, out, "--stage data", &log), 0);
+  EXPECT_NE(log.find("data set"), std::string::npos) << log;
+}
+
 // A port the kernel just handed out (free unless taken in the next milliseconds).
 int free_port() {
   int s = socket(AF_INET, SOCK_STREAM, 0);
@@ -392,9 +419,9 @@ TEST(RecipeSlow, DataParallelStageEqualsOneProcess) {
   run_command("bash -c \"(timeout -s KILL 120 " + cmd + "0 > " + dir + "/out0 2>&1; echo $? > " +
               dir + "/rc0) & (timeout -s KILL 120 " + cmd + "1 > " + dir +
               "/out1 2>&1; echo $? > " + dir + "/rc1) & wait\"");
-  EXPECT_EQ(std::atoi(slurp(dir + "/rc0").c_str()), 0) << slurp(dir + "/out0");
-  EXPECT_EQ(std::atoi(slurp(dir + "/rc1").c_str()), 0) << slurp(dir + "/out1");
-  ASSERT_TRUE(fs::exists(two + "/student/done.json")) << slurp(dir + "/out0");
+  EXPECT_EQ(std::atoi(test::read_text(dir + "/rc0").c_str()), 0) << test::read_text(dir + "/out0");
+  EXPECT_EQ(std::atoi(test::read_text(dir + "/rc1").c_str()), 0) << test::read_text(dir + "/out1");
+  ASSERT_TRUE(fs::exists(two + "/student/done.json")) << test::read_text(dir + "/out0");
   // Tolerance as Distributed.TwoRanksEqualOneProcessWithTheCombinedBatch: the ranks' gradients
   // are summed in another order (float rounding).
   EXPECT_LT(
