@@ -353,6 +353,42 @@ TEST(Recipe, UsersDataInEveryLayoutIsRewrittenAtItsResolution) {
   EXPECT_TRUE(fs::exists(out + "/mine.safetensors"));  // the last train stage's, copied
 }
 
+// Two recipes whose first stages are defined alike share one OUT: the second finds them done
+// and runs only its own stages (the shipped default and fast recipes share their teachers).
+TEST(Recipe, RecipesShareTheStagesTheyDefineAlike) {
+  const std::string dir = scratch_dir(), out = dir + "/out";
+  std::string log;
+  ASSERT_EQ(recipe(tiny_recipe(), out, "--stage data", &log), 0) << log;
+  ASSERT_EQ(recipe(tiny_recipe(), out, "--stage teacher", &log), 0) << log;
+  const auto teacher_time = mtime(out + "/teacher/done.json");
+  const std::string other =
+      edited_recipe(dir,
+                    {{"model = \"spikems-tiny.safetensors\"", "model = \"other.safetensors\""},
+                     {"name = \"student\"", "name = \"student2\""},
+                     {"\"optim.steps\" = 20\n\"optim.batch\" = 4\n\"optim.warmup_steps\" = 2\n"
+                      "\"run.log_every\" = 1\n\"run.val_every\" = 20\n\"run.val_samples\" = 8\n"
+                      "\"run.checkpoint_every\" = 5\n\n[[stage]]\nname = \"calibrate\"",
+                      "\"optim.steps\" = 6\n\"optim.batch\" = 4\n\"optim.warmup_steps\" = 2\n"
+                      "\"run.log_every\" = 1\n\"run.val_every\" = 20\n\"run.val_samples\" = 8\n"
+                      "\"run.checkpoint_every\" = 5\n\n[[stage]]\nname = \"calibrate\""},
+                     {"from = \"@student\"", "from = \"@student2\""}},
+                    "other.toml");
+  ASSERT_EQ(recipe(other, out, "--list", &log), 0) << log;
+  const auto line = [&](const std::string& stage) {
+    const size_t at = log.find(" " + stage + " ");
+    return at == std::string::npos ? std::string() : log.substr(at, log.find('\n', at) - at);
+  };
+  EXPECT_NE(line("teacher").find("done in"), std::string::npos) << log;
+  EXPECT_NE(line("student2").find("pending"), std::string::npos) << log;
+  ASSERT_EQ(recipe(other, out, "", &log), 0) << log;
+  EXPECT_EQ(mtime(out + "/teacher/done.json"), teacher_time);
+  EXPECT_EQ(train_losses(out + "/student2").size(), 6u);
+  EXPECT_EQ(read_json(out + "/student2/done.json")["inputs"]["@teacher"],
+            read_json(out + "/teacher/done.json")["kept_hash"]);
+  EXPECT_TRUE(fs::exists(out + "/other.safetensors"));
+  EXPECT_FALSE(fs::exists(out + "/student"));  // the first recipe's own stage never ran
+}
+
 // `from`: a simulated set made again at 1/2 resolution without simulating it twice. "a-half"
 // sorts before its source, so the runner must order the sets itself.
 TEST(Recipe, FromSetIsItsSourceAtLowerResolution) {
