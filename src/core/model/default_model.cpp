@@ -2,6 +2,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <set>
 #include <vector>
 
 #include "core/util/error.h"
@@ -60,7 +61,8 @@ std::string resolve_model(const std::string& arg) {
     return arg;
   if (arg == "default") return default_model_or_fail();
   const std::string file = "spikems-" + arg + ".safetensors";
-  std::string shipped, where;
+  std::string where;
+  std::set<std::string> names;  // sorted, and once where several folders hold the same model
   for (const auto& d : model_dirs()) {
     where += (where.empty() ? "" : ", ") + d.string();
     if (fs::is_regular_file(d / file, ec)) return (d / file).string();
@@ -68,9 +70,11 @@ std::string resolve_model(const std::string& arg) {
       const std::string n = e.path().filename().string();
       if (n.rfind("spikems-", 0) == 0 && n.size() > 20 &&
           n.compare(n.size() - 12, 12, ".safetensors") == 0)
-        shipped += (shipped.empty() ? "" : ", ") + n.substr(8, n.size() - 20);
+        names.insert(n.substr(8, n.size() - 20));
     }
   }
+  std::string shipped;
+  for (const auto& n : names) shipped += (shipped.empty() ? "" : ", ") + n;
   fail(arg, "",
        "no such model file, and no shipped model of that name (" + file + " in " + where +
            "); shipped: " + (shipped.empty() ? std::string("none") : shipped) +
