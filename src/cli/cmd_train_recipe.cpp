@@ -310,6 +310,7 @@ struct Recipe {
   std::string path, name, summary, model;
   fs::path dir;
   int threads = 1;
+  int data_threads = -1;  // simulate's threads (0: every core; -1: as `threads`)
   std::vector<DataSet> data;
   std::vector<Stage> stages;
 };
@@ -449,7 +450,7 @@ class RecipeReader {
     const toml::node* n = t.get("recipe");
     if (!n || !n->is_table()) fail(r_.path, "the top level", "needs a [recipe] table");
     Keys k(*n->as_table(), r_.path, "[recipe]" + line_of(*n));
-    k.check({"name", "summary", "model", "threads"});
+    k.check({"name", "summary", "model", "threads", "data_threads"});
     r_.name = *k.str("name", true);
     if (!good_name(r_.name)) k.bad("\"name\" must be letters, digits, '-' or '_'");
     r_.summary = k.str("summary").value_or("");
@@ -459,6 +460,7 @@ class RecipeReader {
       k.bad("\"model\" = \"" + r_.model +
             "\" must be a file name ending in .safetensors (written into the output folder)");
     r_.threads = int(k.integer("threads", 0, 1024).value_or(1));
+    r_.data_threads = int(k.integer("data_threads", 0, 1024).value_or(-1));
   }
 
   void read_data(const toml::table& t) {
@@ -1167,6 +1169,13 @@ class Runner {
 
   int command_threads() const { return threads_ > 0 ? threads_ : hardware_threads(); }
 
+  // The simulator writes the same files whatever its threads (tests/core/sim/test_determinism),
+  // so the data sets may use more threads than the train stages, whose results depend on theirs.
+  int data_threads() const {
+    if (o_.threads >= 0 || r_.data_threads < 0) return command_threads();
+    return r_.data_threads > 0 ? r_.data_threads : hardware_threads();
+  }
+
   void spawn_or_fail(const Step& s, Spawn sp, const std::string& what) {
     sp.cwd = out_.string();
     const int rc = run_child(sp);
@@ -1255,7 +1264,7 @@ class Runner {
       Spawn sp;
       sp.argv = {spikems_, "simulate"};
       sp.argv.insert(sp.argv.end(), d.sim_args.begin(), d.sim_args.end());
-      sp.argv.insert(sp.argv.end(), {"--threads", std::to_string(command_threads()), "--out",
+      sp.argv.insert(sp.argv.end(), {"--threads", std::to_string(data_threads()), "--out",
                                      fs::relative(sim, out_).string()});
       if (o_.quiet) sp.argv.push_back("--no-progress");
       sp.env = progress_env(i, "data " + d.name);
@@ -1271,6 +1280,7 @@ class Runner {
     r["set"] = d.name;
     r["hash"] = d.hash;
     r["made_by"] = "spikems train --recipe";
+    if (d.simulated && d.from.empty()) r["threads"] = data_threads();
     r["spikems_version"] = SPIKEMS_VERSION;
     write_file_atomic((partial / "recipe-set.json").string(), r.dump(2) + "\n");
     fs::remove_all(target, ec);

@@ -419,6 +419,33 @@ TEST(Recipe, FromSetIsItsSourceAtLowerResolution) {
   EXPECT_NE(log.find("data set"), std::string::npos) << log;
 }
 
+// `data_threads` gives the simulator more threads than the train stages: the same bytes, the
+// same stage definition (the sets made with one thread are kept), and --threads still wins.
+TEST(Recipe, DataThreadsMakeTheSameSets) {
+  const std::string dir = scratch_dir(), one = dir + "/one", two = dir + "/two";
+  const std::string file =
+      edited_recipe(dir, {{"threads = 1\n", "threads = 1\ndata_threads = 2\n"}});
+  std::string log;
+  ASSERT_EQ(recipe(tiny_recipe(), one, "--stage data", &log), 0) << log;
+  ASSERT_EQ(recipe(file, two, "--stage data", &log), 0) << log;
+  EXPECT_EQ(read_json(one + "/data/rooms/recipe-set.json")["threads"], 1);
+  EXPECT_EQ(read_json(two + "/data/rooms/recipe-set.json")["threads"], 2);
+  for (const char* f : {"manifest.json", "seq_0000.h5", "seq_0003.h5"})
+    EXPECT_EQ(test::read_text(one + "/data/rooms/" + f), test::read_text(two + "/data/rooms/" + f))
+        << f;
+  const auto made = mtime(one + "/data/rooms/seq_0000.h5");
+  ASSERT_EQ(recipe(file, one, "--stage data", &log), 0) << log;
+  EXPECT_EQ(mtime(one + "/data/rooms/seq_0000.h5"), made) << log;
+  const std::string three = dir + "/three";
+  ASSERT_EQ(recipe(file, three, "--stage data --threads 1", &log), 0) << log;
+  EXPECT_EQ(read_json(three + "/data/val/recipe-set.json")["threads"], 1);
+  const std::string bad =
+      edited_recipe(dir, {{"threads = 1\n", "threads = 1\ndata_threads = -2\n"}}, "bad.toml");
+  EXPECT_EQ(recipe(bad, dir + "/bad", "--stage data", &log), 1) << log;
+  EXPECT_NE(log.find("data_threads"), std::string::npos) << log;
+  EXPECT_FALSE(fs::exists(dir + "/bad"));
+}
+
 // A port the kernel just handed out (free unless taken in the next milliseconds).
 int free_port() {
   int s = socket(AF_INET, SOCK_STREAM, 0);
