@@ -173,7 +173,7 @@ void add(CLI::App& app) {
       "  spikems train --config configs/train/default.toml --out my-run --set optim.lr=0.002 "
       "--steps 500\n"
       "  spikems train --recipe configs/recipes/quick.toml --out out/quick   (data, stages, "
-      "calibration, scores, summary.md; the same command again continues)\n"
+      "calibration, scores, NAME.summary.md; the same command again continues)\n"
       "  spikems train --recipe configs/recipes/quick.toml --out out/quick --list   (each "
       "stage's state)\n"
       "The run folder gets config.json, log.jsonl, curves.svg, checkpoint.pt, model.safetensors "

@@ -882,7 +882,7 @@ class Runner {
     if (only >= 0) check_inputs(only);
     if (root_) {
       fs::create_directories(out_);
-      write_if_changed(out_ / "recipe.toml", slurp(r_.path));
+      write_if_changed(out_ / (r_.name + ".recipe.toml"), slurp(r_.path));
     }
     const auto t0 = std::chrono::steady_clock::now();
     for (size_t i = 0; i < steps_.size(); ++i) {
@@ -902,7 +902,7 @@ class Runner {
       write_summary();
       std::fprintf(stderr, "recipe %s: done (%s in this run); model %s, summary %s\n",
                    r_.name.c_str(), about(took).c_str(), (out_ / r_.model).c_str(),
-                   (out_ / "summary.md").c_str());
+                   (out_ / (r_.name + ".summary.md")).c_str());
     } else {
       std::fprintf(stderr, "recipe %s: stage %s done (%s); `--list` shows the others\n",
                    r_.name.c_str(), o_.stage.c_str(), about(took).c_str());
@@ -1582,9 +1582,9 @@ class Runner {
     j["stages"] = ojson::array();
     std::string md = "# Recipe " + r_.name + "\n\n";
     if (!r_.summary.empty()) md += r_.summary + "\n\n";
-    md += "Made with `spikems train --recipe recipe.toml --out OUT` (spikems " SPIKEMS_VERSION
-          "). Model: `" +
-          r_.model + "`. Hardware: " + j["hardware"]["cpu"].get<std::string>() + ", " +
+    md += "Made with `spikems train --recipe " + r_.name +
+          ".recipe.toml --out OUT` (spikems " SPIKEMS_VERSION "). Model: `" + r_.model +
+          "`. Hardware: " + j["hardware"]["cpu"].get<std::string>() + ", " +
           std::to_string(j["hardware"]["threads"].get<int>()) + " thread(s)" +
           (o_.device.empty() ? "" : ", device " + o_.device) +
           (o_.world_size > 1 ? ", " + std::to_string(o_.world_size) + " ranks" : "") + ".\n\n";
@@ -1631,8 +1631,9 @@ class Runner {
           "| eval | model | data | windows ms | IoU % | detection % |\n"
           "|---|---|---|---|---|---|\n" +
           table;
-    write_file_atomic((out_ / "summary.json").string(), j.dump(2) + "\n");
-    write_file_atomic((out_ / "summary.md").string(), md);
+    // Named after the recipe: recipes that share an OUT each keep their own.
+    write_file_atomic((out_ / (r_.name + ".summary.json")).string(), j.dump(2) + "\n");
+    write_file_atomic((out_ / (r_.name + ".summary.md")).string(), md);
   }
 
   const RecipeRunOptions& o_;

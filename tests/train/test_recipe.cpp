@@ -119,7 +119,7 @@ TEST(Recipe, TinyRecipeRunsEveryKindOfStageAndResumesAStageThatDied) {
   const json& d = res["models"][0]["datasets"][0];
   EXPECT_EQ(res["models"][0]["model"], "spikems-tiny.safetensors");
   ASSERT_EQ(d["windows"].size(), 2u);
-  // summary.md: one scores row holding results.json's values; the recipe copied beside it.
+  // tiny.summary.md: one scores row holding results.json's values; the recipe copied beside it.
   char row[256];
   std::snprintf(
       row, sizeof row,
@@ -127,16 +127,16 @@ TEST(Recipe, TinyRecipeRunsEveryKindOfStageAndResumesAStageThatDied) {
       d["windows"][0]["iou_mean"].get<double>(), d["windows"][1]["iou_mean"].get<double>(),
       d["windows"][0]["detection_rate"].get<double>(),
       d["windows"][1]["detection_rate"].get<double>());
-  const std::string md = test::read_text(out + "/summary.md");
+  const std::string md = test::read_text(out + "/tiny.summary.md");
   EXPECT_NE(md.find(row), std::string::npos) << row << "\n" << md;
-  const json sum = read_json(out + "/summary.json");
+  const json sum = read_json(out + "/tiny.summary.json");
   ASSERT_EQ(sum["stages"].size(), 5u);
   double total = 0;
   for (const auto& s : sum["stages"]) total += s["wall_s"].get<double>();
   EXPECT_NEAR(sum["total_wall_s"].get<double>(), total, 1e-6);
   EXPECT_GT(total, 0);
   EXPECT_EQ(sum["scores"][0]["iou"][1], d["windows"][1]["iou_mean"]);
-  EXPECT_EQ(test::read_text(out + "/recipe.toml"), test::read_text(tiny_recipe()));
+  EXPECT_EQ(test::read_text(out + "/tiny.recipe.toml"), test::read_text(tiny_recipe()));
 
   // Resume: the student again, its trainer dying after step 12 (checkpoints every 5 steps);
   // the same command then resumes it and ends with the uninterrupted run's weights.
@@ -363,7 +363,8 @@ TEST(Recipe, RecipesShareTheStagesTheyDefineAlike) {
   const auto teacher_time = mtime(out + "/teacher/done.json");
   const std::string other =
       edited_recipe(dir,
-                    {{"model = \"spikems-tiny.safetensors\"", "model = \"other.safetensors\""},
+                    {{"name = \"tiny\"", "name = \"other\""},
+                     {"model = \"spikems-tiny.safetensors\"", "model = \"other.safetensors\""},
                      {"name = \"student\"", "name = \"student2\""},
                      {"\"optim.steps\" = 20\n\"optim.batch\" = 4\n\"optim.warmup_steps\" = 2\n"
                       "\"run.log_every\" = 1\n\"run.val_every\" = 20\n\"run.val_samples\" = 8\n"
@@ -387,6 +388,11 @@ TEST(Recipe, RecipesShareTheStagesTheyDefineAlike) {
             read_json(out + "/teacher/done.json")["kept_hash"]);
   EXPECT_TRUE(fs::exists(out + "/other.safetensors"));
   EXPECT_FALSE(fs::exists(out + "/student"));  // the first recipe's own stage never ran
+  // Each recipe keeps its own copy and summary in the shared OUT.
+  EXPECT_EQ(test::read_text(out + "/tiny.recipe.toml"), test::read_text(tiny_recipe()));
+  EXPECT_EQ(test::read_text(out + "/other.recipe.toml"), test::read_text(other));
+  EXPECT_NE(test::read_text(out + "/other.summary.md").find("# Recipe other"), std::string::npos);
+  EXPECT_FALSE(fs::exists(out + "/tiny.summary.md"));  // tiny has not run to its end
 }
 
 // `from`: a simulated set made again at 1/2 resolution without simulating it twice. "a-half"
