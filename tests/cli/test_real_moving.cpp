@@ -33,9 +33,13 @@ TEST(RealMovingScript, HelpPrintsTheUsage) {
 }
 
 // The scene of test_cmd_eval_boxes.cpp through the script, at 10 ms windows on a 32x32
-// sensor: window 0 predicts 60 pixels of the 100-pixel box and 10 outside (IoU 54.5 %, found),
-// window 1 one pixel outside it (IoU 0), window 2 has no box. A second boxes file names a
-// recording that is not in DIR: skipped with a note.
+// sensor: window 0 predicts the 60 ON-event pixels of the 100-pixel box and 10 OFF-event pixels
+// outside (IoU 54.5 %), window 1 one pixel outside it (IoU 0); a second box over window 2 (3x3
+// pixels) holds an ON event at (5,5) and OFF events at (4,4) and (6,6), the last at 29,999 us, so
+// its spike falls after the window (IoU 2 / 9). The pass-through model labels every event moving:
+// recall 100 %, both boxes found. A model passing ON events only: window 0 IoU 60 / 100, window
+// 2 1 / 9; the second box has 1 of its 3 events moving, so it is not found; recall 61 / 63.
+// A second boxes file names a recording that is not in DIR: skipped with a note.
 TEST(RealMovingScript, ScoresEachRecordingAgainstItsBoxesAndPools) {
   const std::string dir = test::scratch_dir();
   fs::create_directories(dir + "/rec");
@@ -46,14 +50,15 @@ TEST(RealMovingScript, ScoresEachRecordingAgainstItsBoxesAndPools) {
     for (int y = 10; y <= 19; ++y)
       for (int x = 10; x <= 15; ++x) ev << (t += 10) << ' ' << x << ' ' << y << " 1\n";
     for (int x = 0; x <= 9; ++x) ev << (t += 10) << ' ' << x << " 0 0\n";
-    ev << "12000 0 31 1\n25000 5 5 1\n29999 5 5 0\n";
+    ev << "12000 0 31 1\n25000 5 5 1\n27000 4 4 0\n29999 6 6 0\n";
   }
   std::ofstream(dir + "/boxes/ball_boxes.csv")
       << "# recording: ball.txt\n# sensor: 32 32\n# time_unit: us\n"
-         "t_start_us,t_end_us,x0,y0,x1,y1,id\n0,20000,10,10,19,19,1\n";
+         "t_start_us,t_end_us,x0,y0,x1,y1,id\n0,20000,10,10,19,19,1\n20000,30000,4,4,6,6,2\n";
   std::ofstream(dir + "/boxes/gone_boxes.csv")
       << "# recording: gone.txt\n# sensor: 32 32\nt_start_us,t_end_us,x0,y0,x1,y1\n0,1,0,0,1,1\n";
   save_model(dir + "/pass.safetensors", test::pointwise_model({1.f, 0.f, 0.f, 1.f}, "pass"));
+  save_model(dir + "/on.safetensors", test::pointwise_model({0.f, 0.f, 0.f, 1.f}, "on"));
   const std::string env = "SPIKEMS_BIN=" + spikems_binary() + " BOXES=" + dir +
                           "/boxes OUT=" + dir + "/out WINDOWS=10 ";
   std::string out;
@@ -63,15 +68,25 @@ TEST(RealMovingScript, ScoresEachRecordingAgainstItsBoxesAndPools) {
             0)
       << out;
   EXPECT_NE(out.find("gone.txt absent, gone skipped"), std::string::npos) << out;
-  EXPECT_NE(out.find("| model | factor | ball: IoU %, found / boxed | pooled: found / boxed |"),
+  EXPECT_NE(out.find("| model | factor | ball: IoU %, recall %, found / boxed | pooled: found / "
+                     "boxed | IoU % | recall % |"),
             std::string::npos)
       << out;
   // The pass-through model predicts the same pixels at any output factor here.
   for (const char* factor : {"1", "2"})
     EXPECT_NE(out.find(std::string("| pass.safetensors | ") + factor +
-                       " | 27.3, 1 / 2 | 1 / 2 (50.0 %) | 27.3 |"),
+                       " | 25.6, 100.0, 2 / 2 | 2 / 2 (100.0 %) | 25.6 | 100.0 |"),
               std::string::npos)
         << out;
+  // A model that passes ON events only: the OFF events of the second box stay background.
+  ASSERT_EQ(run_command(env + source_dir() + "/scripts/real_moving " + dir + "/on.safetensors " +
+                            dir + "/rec",
+                        &out),
+            0)
+      << out;
+  EXPECT_NE(out.find("| on.safetensors | 1 | 23.7, 96.8, 1 / 2 | 1 / 2 (50.0 %) | 23.7 | 96.8 |"),
+            std::string::npos)
+      << out;
   std::ifstream summary(dir + "/out/summary.md");
   std::string first;
   ASSERT_TRUE(std::getline(summary, first));
